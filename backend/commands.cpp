@@ -1,0 +1,654 @@
+// Command recording (encoders, passes, copies, barriers, timestamps) and the queue.
+module;
+#include <expected>
+#include <optional>
+#include <span>
+#include <utility>
+#include <cstdint>
+#include <string_view>
+#include <algorithm>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+#include <vulkan/vulkan.h>
+module weft.gpu;
+import weft.core;
+
+namespace weft::gpu {
+using namespace detail;
+
+namespace {
+PFN_vkCmdBeginDebugUtilsLabelEXT begin_label_fn(const DeviceShared& d) {
+  if (!d.instance->debug_utils) return nullptr;
+  return reinterpret_cast<PFN_vkCmdBeginDebugUtilsLabelEXT>(
+      vkGetInstanceProcAddr(d.instance->instance, "vkCmdBeginDebugUtilsLabelEXT"));
+}
+PFN_vkCmdEndDebugUtilsLabelEXT end_label_fn(const DeviceShared& d) {
+  if (!d.instance->debug_utils) return nullptr;
+  return reinterpret_cast<PFN_vkCmdEndDebugUtilsLabelEXT>(
+      vkGetInstanceProcAddr(d.instance->instance, "vkCmdEndDebugUtilsLabelEXT"));
+}
+
+VkImageSubresourceLayers mip_layers(const Texture& t, std::uint32_t mip) {
+  return {aspect_of(t.format()) & ~VkImageAspectFlags(VK_IMAGE_ASPECT_STENCIL_BIT), mip, 0,
+          t.descriptor().dimension == TextureDimension::D3 ? 1 : t.size().depth_or_layers};
+}
+
+VkExtent3D mip_extent(const Texture& t, std::uint32_t mip) {
+  const auto s = t.size();
+  const std::uint32_t depth = t.descriptor().dimension == TextureDimension::D3 ? std::max(1u, s.depth_or_layers >> mip) : 1;
+  return {std::max(1u, s.width >> mip), std::max(1u, s.height >> mip), depth};
+}
+
+std::uint64_t mip_bytes(const Texture& t, std::uint32_t mip) {
+  const VkExtent3D e = mip_extent(t, mip);
+  const std::uint64_t layers = t.descriptor().dimension == TextureDimension::D3 ? 1 : t.size().depth_or_layers;
+  return std::uint64_t(e.width) * e.height * e.depth * layers * format_info(t.format()).bytes_per_texel;
+}
+}  // namespace
+
+// ---- command encoder ------------------------------------------------------------------
+
+Result<CommandEncoder> Device::create_command_encoder(std::string_view label) {
+  return DeviceShared::make_encoder(shared_, label);
+}
+
+CommandEncoder::CommandEncoder(CommandEncoder&&) noexcept = default;
+CommandEncoder& CommandEncoder::operator=(CommandEncoder&& o) noexcept {
+  std::swap(device_, o.device_);
+  std::swap(cmd_, o.cmd_);
+  std::swap(label_, o.label_);
+  std::swap(error_, o.error_);
+  std::swap(in_pass_, o.in_pass_);
+  return *this;
+}
+CommandEncoder::~CommandEncoder() {
+  if (device_ && cmd_) vkFreeCommandBuffers(device_->device, device_->command_pool, 1, &cmd_);
+}
+
+void CommandEncoder::record_error(Error error) {
+  if (!error_) error_ = std::move(error);
+}
+
+bool CommandEncoder::check_outside_pass(std::string_view what) {
+  if (in_pass_) {
+    record_error({ErrorKind::InvalidArgument,
+                  weft::format("command encoder '{}': {} inside a render or compute pass", label_, what)});
+    return false;
+  }
+  return !error_.has_value();
+}
+
+Result<CommandBuffer> CommandEncoder::finish() {
+  if (in_pass_) record_error({ErrorKind::InvalidArgument, weft::format("command encoder '{}': finish() with a pass still open", label_)});
+  if (error_) return std::unexpected(*error_);
+  if (VkResult r = vkEndCommandBuffer(cmd_); r != VK_SUCCESS)
+    return std::unexpected(vk_error(r, weft::format("finishing command encoder '{}'", label_)));
+  CommandBuffer out;
+  out.device_ = std::move(device_);
+  out.cmd_ = std::exchange(cmd_, VK_NULL_HANDLE);
+  out.label_ = label_;
+  return out;
+}
+
+CommandBuffer::CommandBuffer(CommandBuffer&&) noexcept = default;
+CommandBuffer& CommandBuffer::operator=(CommandBuffer&& o) noexcept {
+  std::swap(device_, o.device_);
+  std::swap(cmd_, o.cmd_);
+  std::swap(label_, o.label_);
+  return *this;
+}
+CommandBuffer::~CommandBuffer() {
+  if (device_ && cmd_) vkFreeCommandBuffers(device_->device, device_->command_pool, 1, &cmd_);
+}
+
+void CommandEncoder::push_debug_group(std::string_view label) {
+  if (auto fn = begin_label_fn(*device_)) {
+    std::string name(label);
+    VkDebugUtilsLabelEXT l{VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT};
+    l.pLabelName = name.c_str();
+    fn(cmd_, &l);
+  }
+}
+
+void CommandEncoder::pop_debug_group() {
+  if (auto fn = end_label_fn(*device_)) fn(cmd_);
+}
+
+void CommandEncoder::barrier(std::span<const TextureBarrier> textures, std::span<const BufferBarrier> buffers) {
+  if (!check_outside_pass("barrier")) return;
+  std::vector<VkImageMemoryBarrier2> images;
+  images.reserve(textures.size());
+  for (const auto& b : textures) {
+    const bool depth = format_info(b.texture->format()).depth;
+    const StageAccess src = stage_access(b.before, depth), dst = stage_access(b.after, depth);
+    VkImageMemoryBarrier2 m{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+    m.srcStageMask = src.stages;
+    m.srcAccessMask = is_write(b.before) ? src.access : VK_ACCESS_2_NONE;  // only writes need making available
+    m.dstStageMask = dst.stages;
+    m.dstAccessMask = dst.access;
+    m.oldLayout = src.layout;
+    m.newLayout = dst.layout;
+    m.srcQueueFamilyIndex = m.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    m.image = b.texture->image_;
+    m.subresourceRange = {aspect_of(b.texture->format()), 0, VK_REMAINING_MIP_LEVELS, 0, VK_REMAINING_ARRAY_LAYERS};
+    images.push_back(m);
+    b.texture->state_ = b.after;
+  }
+  // Buffers need no layout, so one global memory barrier covers them all.
+  VkMemoryBarrier2 global{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+  for (const auto& b : buffers) {
+    const StageAccess src = stage_access(b.before, false), dst = stage_access(b.after, false);
+    global.srcStageMask |= src.stages;
+    if (is_write(b.before)) global.srcAccessMask |= src.access;
+    global.dstStageMask |= dst.stages;
+    global.dstAccessMask |= dst.access;
+  }
+  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dep.memoryBarrierCount = buffers.empty() ? 0 : 1;
+  dep.pMemoryBarriers = &global;
+  dep.imageMemoryBarrierCount = std::uint32_t(images.size());
+  dep.pImageMemoryBarriers = images.data();
+  if (dep.memoryBarrierCount || dep.imageMemoryBarrierCount) vkCmdPipelineBarrier2(cmd_, &dep);
+}
+
+void CommandEncoder::transition(const Texture& texture, Access after) {
+  const TextureBarrier b{&texture, texture.state(), after};
+  barrier(std::span(&b, 1));
+}
+
+void CommandEncoder::copy_buffer_to_buffer(const Buffer& src, std::uint64_t src_offset, const Buffer& dst,
+                                           std::uint64_t dst_offset, std::uint64_t size) {
+  if (!check_outside_pass("copy_buffer_to_buffer")) return;
+  if (!has(src.usage(), BufferUsage::CopySrc) && !has(src.usage(), BufferUsage::MapWrite))
+    return record_error({ErrorKind::InvalidArgument, weft::format("copy source buffer '{}' lacks copy-src usage (has {})", src.label(), to_string(src.usage()))});
+  if (!has(dst.usage(), BufferUsage::CopyDst) && !has(dst.usage(), BufferUsage::MapRead))
+    return record_error({ErrorKind::InvalidArgument, weft::format("copy destination buffer '{}' lacks copy-dst usage (has {})", dst.label(), to_string(dst.usage()))});
+  if (size == 0 || src_offset + size > src.size() || dst_offset + size > dst.size())
+    return record_error({ErrorKind::InvalidArgument,
+                         weft::format("copy of {} bytes from '{}'+{} ({} bytes) to '{}'+{} ({} bytes) is out of range",
+                                     size, src.label(), src_offset, src.size(), dst.label(), dst_offset, dst.size())});
+  VkBufferCopy region{src_offset, dst_offset, size};
+  vkCmdCopyBuffer(cmd_, src.buffer_, dst.buffer_, 1, &region);
+}
+
+void CommandEncoder::copy_buffer_to_texture(const Buffer& src, std::uint64_t src_offset, const Texture& dst,
+                                            std::uint32_t mip) {
+  if (!check_outside_pass("copy_buffer_to_texture")) return;
+  if (!has(dst.usage(), TextureUsage::CopyDst))
+    return record_error({ErrorKind::InvalidArgument, weft::format("copy destination texture '{}' lacks copy-dst usage (has {})", dst.label(), to_string(dst.usage()))});
+  if (mip >= dst.descriptor().mip_level_count)
+    return record_error({ErrorKind::InvalidArgument, weft::format("texture '{}' has no mip {}", dst.label(), mip)});
+  if (src_offset + mip_bytes(dst, mip) > src.size())
+    return record_error({ErrorKind::InvalidArgument, weft::format("buffer '{}' ({} bytes from offset {}) is too small for mip {} of texture '{}' ({} bytes)",
+                                                                 src.label(), src.size(), src_offset, mip, dst.label(), mip_bytes(dst, mip))});
+  VkBufferImageCopy region{};
+  region.bufferOffset = src_offset;
+  region.imageSubresource = mip_layers(dst, mip);
+  region.imageExtent = mip_extent(dst, mip);
+  vkCmdCopyBufferToImage(cmd_, src.buffer_, dst.image_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+}
+
+void CommandEncoder::copy_texture_to_buffer(const Texture& src, const Buffer& dst, std::uint64_t dst_offset,
+                                            std::uint32_t mip) {
+  if (!check_outside_pass("copy_texture_to_buffer")) return;
+  if (!has(src.usage(), TextureUsage::CopySrc))
+    return record_error({ErrorKind::InvalidArgument, weft::format("copy source texture '{}' lacks copy-src usage (has {})", src.label(), to_string(src.usage()))});
+  if (mip >= src.descriptor().mip_level_count)
+    return record_error({ErrorKind::InvalidArgument, weft::format("texture '{}' has no mip {}", src.label(), mip)});
+  if (dst_offset + mip_bytes(src, mip) > dst.size())
+    return record_error({ErrorKind::InvalidArgument, weft::format("buffer '{}' ({} bytes from offset {}) is too small for mip {} of texture '{}' ({} bytes)",
+                                                                 dst.label(), dst.size(), dst_offset, mip, src.label(), mip_bytes(src, mip))});
+  VkBufferImageCopy region{};
+  region.bufferOffset = dst_offset;
+  region.imageSubresource = mip_layers(src, mip);
+  region.imageExtent = mip_extent(src, mip);
+  vkCmdCopyImageToBuffer(cmd_, src.image_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, dst.buffer_, 1, &region);
+}
+
+void CommandEncoder::fill_buffer(const Buffer& buffer, std::uint32_t value, std::uint64_t offset, std::uint64_t size) {
+  if (!check_outside_pass("fill_buffer")) return;
+  if (!has(buffer.usage(), BufferUsage::CopyDst))
+    return record_error({ErrorKind::InvalidArgument, weft::format("filled buffer '{}' lacks copy-dst usage (has {})", buffer.label(), to_string(buffer.usage()))});
+  const std::uint64_t n = size ? size : buffer.size() - offset;
+  if (offset % 4 || n % 4 || offset + n > buffer.size())
+    return record_error({ErrorKind::InvalidArgument, weft::format("fill of buffer '{}': range [{}, {}) must be 4-byte aligned and within {} bytes",
+                                                                 buffer.label(), offset, offset + n, buffer.size())});
+  vkCmdFillBuffer(cmd_, buffer.buffer_, offset, n, value);
+}
+
+void CommandEncoder::reset_query_set(const QuerySet& set) {
+  if (!check_outside_pass("reset_query_set")) return;
+  vkCmdResetQueryPool(cmd_, set.pool_, 0, set.count());
+}
+
+void CommandEncoder::write_timestamp(const QuerySet& set, std::uint32_t index) {
+  if (index >= set.count())
+    return record_error({ErrorKind::InvalidArgument, weft::format("timestamp {} is out of range of query set '{}' ({} queries)", index, set.label(), set.count())});
+  vkCmdWriteTimestamp2(cmd_, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, set.pool_, index);
+}
+
+// ---- render passes --------------------------------------------------------------------
+
+RenderPassEncoder CommandEncoder::begin_render_pass(const RenderPassDescriptor& desc) {
+  RenderPassEncoder pass(this);
+  pass.label_ = desc.label;
+  if (!check_outside_pass(weft::format("beginning render pass '{}'", desc.label))) {
+    pass.ended_ = true;
+    return pass;
+  }
+  auto bad = [&](std::string message) {
+    record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': {}", desc.label, message)});
+    pass.ended_ = true;
+    return std::move(pass);
+  };
+  if (desc.color_attachments.empty() && !desc.depth_attachment) return bad("no attachments");
+  auto load_op = [](LoadOp op) {
+    return op == LoadOp::Clear ? VK_ATTACHMENT_LOAD_OP_CLEAR : op == LoadOp::Load ? VK_ATTACHMENT_LOAD_OP_LOAD : VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+  };
+  auto store_op = [](StoreOp op) { return op == StoreOp::Store ? VK_ATTACHMENT_STORE_OP_STORE : VK_ATTACHMENT_STORE_OP_DONT_CARE; };
+  std::optional<Extent3D> extent;
+  auto check_size = [&](const TextureView& v) -> bool {
+    const VkExtent3D e = mip_extent(v.texture(), v.base_mip());
+    Extent3D s{e.width, e.height, 1};
+    if (!extent) extent = s;
+    return *extent == s;
+  };
+  std::vector<VkRenderingAttachmentInfo> colors;
+  for (std::size_t i = 0; i < desc.color_attachments.size(); ++i) {
+    const auto& a = desc.color_attachments[i];
+    if (!a.view) return bad(weft::format("color attachment {} has no view", i));
+    const Texture& t = a.view->texture();
+    if (!has(t.usage(), TextureUsage::ColorAttachment))
+      return bad(weft::format("color attachment {} texture '{}' lacks color-attachment usage (has {})", i, t.label(), to_string(t.usage())));
+    if (!check_size(*a.view))
+      return bad(weft::format("color attachment {} texture '{}' is {}x{}, the first attachment is {}x{}", i, t.label(),
+                             t.size().width >> a.view->base_mip(), t.size().height >> a.view->base_mip(), extent->width, extent->height));
+    VkRenderingAttachmentInfo info{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    info.imageView = a.view->view_;
+    info.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    info.loadOp = load_op(a.load);
+    info.storeOp = store_op(a.store);
+    info.clearValue.color = {{a.clear_color.x, a.clear_color.y, a.clear_color.z, a.clear_color.w}};
+    colors.push_back(info);
+    pass.color_formats_.push_back(t.format());
+  }
+  VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  if (desc.depth_attachment) {
+    const auto& a = *desc.depth_attachment;
+    if (!a.view) return bad("depth attachment has no view");
+    const Texture& t = a.view->texture();
+    if (!has(t.usage(), TextureUsage::DepthAttachment))
+      return bad(weft::format("depth attachment texture '{}' lacks depth-attachment usage (has {})", t.label(), to_string(t.usage())));
+    if (!check_size(*a.view))
+      return bad(weft::format("depth attachment texture '{}' is {}x{}, the color attachments are {}x{}", t.label(),
+                             t.size().width, t.size().height, extent->width, extent->height));
+    depth.imageView = a.view->view_;
+    depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    depth.loadOp = load_op(a.load);
+    depth.storeOp = store_op(a.store);
+    depth.clearValue.depthStencil = {a.clear_depth, 0};
+    pass.depth_format_ = t.format();
+  }
+  VkRenderingInfo info{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  info.renderArea = {{0, 0}, {extent->width, extent->height}};
+  info.layerCount = 1;
+  info.colorAttachmentCount = std::uint32_t(colors.size());
+  info.pColorAttachments = colors.data();
+  info.pDepthAttachment = desc.depth_attachment ? &depth : nullptr;
+  if (pass.depth_format_ == Format::Depth24PlusStencil8) info.pStencilAttachment = &depth;
+  push_debug_group(desc.label.empty() ? "render pass" : desc.label);
+  vkCmdBeginRendering(cmd_, &info);
+  in_pass_ = true;
+  pass.width_ = extent->width;
+  pass.height_ = extent->height;
+  // Default viewport and scissor: the whole attachment. Clip space is Vulkan's (y down, z in
+  // [0, 1]); cameras build their projections for it.
+  VkViewport viewport{0, 0, float(extent->width), float(extent->height), 0.0f, 1.0f};
+  VkRect2D scissor{{0, 0}, {extent->width, extent->height}};
+  vkCmdSetViewport(cmd_, 0, 1, &viewport);
+  vkCmdSetScissor(cmd_, 0, 1, &scissor);
+  return pass;
+}
+
+RenderPassEncoder::RenderPassEncoder(RenderPassEncoder&& o) noexcept
+    : encoder_(std::exchange(o.encoder_, nullptr)),
+      pipeline_(o.pipeline_),
+      groups_(o.groups_),
+      dirty_groups_(o.dirty_groups_),
+      index_bound_(o.index_bound_),
+      width_(o.width_),
+      height_(o.height_),
+      color_formats_(std::move(o.color_formats_)),
+      depth_format_(o.depth_format_),
+      label_(std::move(o.label_)),
+      ended_(std::exchange(o.ended_, true)) {}
+
+RenderPassEncoder::~RenderPassEncoder() {
+  if (encoder_ && !ended_) {
+    encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}' was never ended", label_)});
+    end();
+  }
+}
+
+void RenderPassEncoder::set_pipeline(const RenderPipeline& pipeline) {
+  if (ended_) return;
+  if (pipeline.color_formats_ != color_formats_ || pipeline.depth_format_ != depth_format_) {
+    std::string want, have;
+    for (auto f : pipeline.color_formats_) want += std::string(to_string(f)) + " ";
+    for (auto f : color_formats_) have += std::string(to_string(f)) + " ";
+    encoder_->record_error({ErrorKind::InvalidArgument,
+                            weft::format("render pass '{}': pipeline '{}' targets [{}] depth {} but the pass has [{}] depth {}",
+                                        label_, pipeline.label(), want, to_string(pipeline.depth_format_), have,
+                                        to_string(depth_format_))});
+    return;
+  }
+  pipeline_ = &pipeline;
+  vkCmdBindPipeline(encoder_->cmd_, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline_);
+  dirty_groups_ = 0xff & ~0u;  // the new layout may differ: rebind everything at the next draw
+  for (std::uint32_t i = 0; i < groups_.size(); ++i)
+    if (!groups_[i]) dirty_groups_ &= ~(1u << i);
+}
+
+void RenderPassEncoder::set_bind_group(std::uint32_t index, const BindGroup& group) {
+  if (ended_) return;
+  if (index >= groups_.size())
+    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': bind group index {} >= 8 (group '{}')", label_, index, group.label())});
+  groups_[index] = group.set_;
+  dirty_groups_ |= 1u << index;
+}
+
+void RenderPassEncoder::set_vertex_buffer(std::uint32_t slot, const Buffer& buffer, std::uint64_t offset) {
+  if (ended_) return;
+  if (!has(buffer.usage(), BufferUsage::Vertex))
+    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': buffer '{}' set as vertex buffer lacks vertex usage (has {})",
+                                                                           label_, buffer.label(), to_string(buffer.usage()))});
+  VkDeviceSize off = offset;
+  vkCmdBindVertexBuffers(encoder_->cmd_, slot, 1, &buffer.buffer_, &off);
+}
+
+void RenderPassEncoder::set_index_buffer(const Buffer& buffer, std::uint64_t offset) {
+  if (ended_) return;
+  if (!has(buffer.usage(), BufferUsage::Index))
+    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': buffer '{}' set as index buffer lacks index usage (has {})",
+                                                                           label_, buffer.label(), to_string(buffer.usage()))});
+  vkCmdBindIndexBuffer(encoder_->cmd_, buffer.buffer_, offset, VK_INDEX_TYPE_UINT32);
+  index_bound_ = true;
+}
+
+void RenderPassEncoder::set_push_constants(std::span<const std::byte> data, std::uint32_t offset) {
+  if (ended_) return;
+  if (!pipeline_)
+    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': push constants before set_pipeline", label_)});
+  if (offset + data.size() > pipeline_->push_constant_size_ || data.size() % 4 || offset % 4)
+    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': {} bytes of push constants at offset {} exceed pipeline '{}''s {} bytes (or are not 4-byte aligned)",
+                                                                           label_, data.size(), offset, pipeline_->label(), pipeline_->push_constant_size_)});
+  vkCmdPushConstants(encoder_->cmd_, pipeline_->layout_, VK_SHADER_STAGE_ALL, offset, std::uint32_t(data.size()), data.data());
+}
+
+void RenderPassEncoder::set_viewport(float x, float y, float width, float height) {
+  if (ended_) return;
+  VkViewport viewport{x, y, width, height, 0.0f, 1.0f};
+  vkCmdSetViewport(encoder_->cmd_, 0, 1, &viewport);
+}
+
+bool RenderPassEncoder::check_draw(std::string_view what) {
+  if (ended_) return false;
+  if (!pipeline_) {
+    encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': {} without a pipeline", label_, what)});
+    return false;
+  }
+  for (std::uint32_t i = 0; i < groups_.size(); ++i)
+    if (dirty_groups_ & (1u << i))
+      vkCmdBindDescriptorSets(encoder_->cmd_, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_->layout_, i, 1, &groups_[i], 0, nullptr);
+  dirty_groups_ = 0;
+  return true;
+}
+
+void RenderPassEncoder::draw(std::uint32_t vertex_count, std::uint32_t instance_count, std::uint32_t first_vertex,
+                             std::uint32_t first_instance) {
+  if (!check_draw("draw")) return;
+  vkCmdDraw(encoder_->cmd_, vertex_count, instance_count, first_vertex, first_instance);
+}
+
+void RenderPassEncoder::draw_indexed(std::uint32_t index_count, std::uint32_t instance_count, std::uint32_t first_index,
+                                     std::int32_t base_vertex, std::uint32_t first_instance) {
+  if (!check_draw("draw_indexed")) return;
+  if (!index_bound_)
+    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': draw_indexed without an index buffer", label_)});
+  vkCmdDrawIndexed(encoder_->cmd_, index_count, instance_count, first_index, base_vertex, first_instance);
+}
+
+void RenderPassEncoder::end() {
+  if (ended_ || !encoder_) return;
+  ended_ = true;
+  vkCmdEndRendering(encoder_->cmd_);
+  encoder_->pop_debug_group();
+  encoder_->in_pass_ = false;
+}
+
+// ---- compute passes -------------------------------------------------------------------
+
+ComputePassEncoder CommandEncoder::begin_compute_pass(std::string_view label) {
+  ComputePassEncoder pass(this);
+  pass.label_ = label;
+  if (!check_outside_pass(weft::format("beginning compute pass '{}'", label))) {
+    pass.ended_ = true;
+    return pass;
+  }
+  push_debug_group(label.empty() ? "compute pass" : label);
+  in_pass_ = true;
+  return pass;
+}
+
+ComputePassEncoder::ComputePassEncoder(ComputePassEncoder&& o) noexcept
+    : encoder_(std::exchange(o.encoder_, nullptr)),
+      pipeline_(o.pipeline_),
+      groups_(o.groups_),
+      dirty_groups_(o.dirty_groups_),
+      label_(std::move(o.label_)),
+      ended_(std::exchange(o.ended_, true)) {}
+
+ComputePassEncoder::~ComputePassEncoder() {
+  if (encoder_ && !ended_) {
+    encoder_->record_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}' was never ended", label_)});
+    end();
+  }
+}
+
+void ComputePassEncoder::set_pipeline(const ComputePipeline& pipeline) {
+  if (ended_) return;
+  pipeline_ = &pipeline;
+  vkCmdBindPipeline(encoder_->cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline_);
+  dirty_groups_ = 0;
+  for (std::uint32_t i = 0; i < groups_.size(); ++i)
+    if (groups_[i]) dirty_groups_ |= 1u << i;
+}
+
+void ComputePassEncoder::set_bind_group(std::uint32_t index, const BindGroup& group) {
+  if (ended_) return;
+  if (index >= groups_.size())
+    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': bind group index {} >= 8 (group '{}')", label_, index, group.label())});
+  groups_[index] = group.set_;
+  dirty_groups_ |= 1u << index;
+}
+
+void ComputePassEncoder::set_push_constants(std::span<const std::byte> data, std::uint32_t offset) {
+  if (ended_) return;
+  if (!pipeline_)
+    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': push constants before set_pipeline", label_)});
+  if (offset + data.size() > pipeline_->push_constant_size_ || data.size() % 4 || offset % 4)
+    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': {} bytes of push constants at offset {} exceed pipeline '{}''s {} bytes (or are not 4-byte aligned)",
+                                                                           label_, data.size(), offset, pipeline_->label(), pipeline_->push_constant_size_)});
+  vkCmdPushConstants(encoder_->cmd_, pipeline_->layout_, VK_SHADER_STAGE_ALL, offset, std::uint32_t(data.size()), data.data());
+}
+
+void ComputePassEncoder::dispatch(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+  if (ended_) return;
+  if (!pipeline_)
+    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': dispatch without a pipeline", label_)});
+  for (std::uint32_t i = 0; i < groups_.size(); ++i)
+    if (dirty_groups_ & (1u << i))
+      vkCmdBindDescriptorSets(encoder_->cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_->layout_, i, 1, &groups_[i], 0, nullptr);
+  dirty_groups_ = 0;
+  if (x && y && z) vkCmdDispatch(encoder_->cmd_, x, y, z);
+}
+
+void ComputePassEncoder::end() {
+  if (ended_ || !encoder_) return;
+  ended_ = true;
+  encoder_->pop_debug_group();
+  encoder_->in_pass_ = false;
+}
+
+// ---- queue ----------------------------------------------------------------------------
+
+Result<void> Queue::submit(CommandBuffer&& commands) {
+  if (!commands.cmd_) return fail(ErrorKind::InvalidArgument, "submitting an empty command buffer");
+  VkFenceCreateInfo fence_info{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  VkFence fence = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateFence(device_->device, &fence_info, nullptr, &fence); r != VK_SUCCESS)
+    return std::unexpected(vk_error(r, "creating a fence"));
+  VkCommandBufferSubmitInfo cmd{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
+  cmd.commandBuffer = commands.cmd_;
+  VkSubmitInfo2 submit{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
+  submit.commandBufferInfoCount = 1;
+  submit.pCommandBufferInfos = &cmd;
+  if (VkResult r = vkQueueSubmit2(device_->queue, 1, &submit, fence); r != VK_SUCCESS) {
+    vkDestroyFence(device_->device, fence, nullptr);
+    return std::unexpected(vk_error(r, weft::format("submitting '{}'", commands.label())));
+  }
+  device_->pending.push_back({fence, std::exchange(commands.cmd_, VK_NULL_HANDLE)});
+  return {};
+}
+
+Result<void> Queue::wait_idle() { return device_->wait_idle(); }
+
+Result<void> Queue::write_buffer(const Buffer& buffer, std::uint64_t offset, std::span<const std::byte> data) {
+  if (offset + data.size() > buffer.size())
+    return fail(ErrorKind::InvalidArgument, "writing {} bytes at offset {} overflows buffer '{}' of {} bytes",
+                data.size(), offset, buffer.label(), buffer.size());
+  if (data.empty()) return {};
+  if (buffer.mapped_) {
+    std::memcpy(buffer.mapped_ + offset, data.data(), data.size());
+    return {};
+  }
+  if (!has(buffer.usage(), BufferUsage::CopyDst))
+    return fail(ErrorKind::InvalidArgument, "writing buffer '{}' needs copy-dst or map-write usage (has {})",
+                buffer.label(), to_string(buffer.usage()));
+  auto stage = DeviceShared::make_buffer(device_, {buffer.label() + " (staging)", data.size(), BufferUsage::MapWrite}, {});
+  if (!stage) return std::unexpected(stage.error());
+  std::memcpy(stage->mapped_, data.data(), data.size());
+  auto encoder = DeviceShared::make_encoder(device_, "write_buffer");
+  if (!encoder) return std::unexpected(encoder.error());
+  encoder->copy_buffer_to_buffer(*stage, 0, buffer, offset, data.size());
+  // Make the copy visible to whatever reads the buffer in later submissions.
+  const BufferBarrier b{&buffer, Access::CopyDst, Access::ShaderRead};
+  const BufferBarrier rest[] = {b, {&buffer, Access::CopyDst, Access::VertexBuffer}, {&buffer, Access::CopyDst, Access::IndexBuffer},
+                                {&buffer, Access::CopyDst, Access::UniformRead}, {&buffer, Access::CopyDst, Access::CopySrc}};
+  encoder->barrier({}, rest);
+  auto commands = encoder->finish();
+  if (!commands) return std::unexpected(commands.error());
+  if (auto ok = submit(std::move(*commands)); !ok) return ok;
+  return wait_idle();
+}
+
+Result<void> Queue::write_texture(const Texture& texture, std::span<const std::byte> data, std::uint32_t mip,
+                                  Access after) {
+  if (mip >= texture.descriptor().mip_level_count)
+    return fail(ErrorKind::InvalidArgument, "texture '{}' has no mip {}", texture.label(), mip);
+  const std::uint64_t bytes = mip_bytes(texture, mip);
+  if (data.size() != bytes)
+    return fail(ErrorKind::InvalidArgument, "writing texture '{}' mip {}: got {} bytes, expected {} ({}x{} {})",
+                texture.label(), mip, data.size(), bytes, mip_extent(texture, mip).width,
+                mip_extent(texture, mip).height, to_string(texture.format()));
+  if (!has(texture.usage(), TextureUsage::CopyDst))
+    return fail(ErrorKind::InvalidArgument, "writing texture '{}' needs copy-dst usage (has {})", texture.label(),
+                to_string(texture.usage()));
+  auto stage = DeviceShared::make_buffer(device_, {texture.label() + " (staging)", bytes, BufferUsage::MapWrite}, {});
+  if (!stage) return std::unexpected(stage.error());
+  std::memcpy(stage->mapped_, data.data(), data.size());
+  auto encoder = DeviceShared::make_encoder(device_, "write_texture");
+  if (!encoder) return std::unexpected(encoder.error());
+  encoder->transition(texture, Access::CopyDst);
+  encoder->copy_buffer_to_texture(*stage, 0, texture, mip);
+  encoder->transition(texture, after);
+  auto commands = encoder->finish();
+  if (!commands) return std::unexpected(commands.error());
+  if (auto ok = submit(std::move(*commands)); !ok) return ok;
+  return wait_idle();
+}
+
+Result<std::vector<std::byte>> Queue::read_texture(const Texture& texture, std::uint32_t mip) {
+  if (!has(texture.usage(), TextureUsage::CopySrc))
+    return fail(ErrorKind::InvalidArgument, "reading back texture '{}' needs copy-src usage (has {})", texture.label(),
+                to_string(texture.usage()));
+  if (mip >= texture.descriptor().mip_level_count)
+    return fail(ErrorKind::InvalidArgument, "texture '{}' has no mip {}", texture.label(), mip);
+  const std::uint64_t bytes = mip_bytes(texture, mip);
+  auto stage = DeviceShared::make_buffer(device_, {texture.label() + " (readback)", bytes, BufferUsage::MapRead}, {});
+  if (!stage) return std::unexpected(stage.error());
+  auto encoder = DeviceShared::make_encoder(device_, "read_texture");
+  if (!encoder) return std::unexpected(encoder.error());
+  encoder->transition(texture, Access::CopySrc);
+  encoder->copy_texture_to_buffer(texture, *stage, 0, mip);
+  const BufferBarrier host{&*stage, Access::CopyDst, Access::HostRead};
+  encoder->barrier({}, std::span(&host, 1));
+  auto commands = encoder->finish();
+  if (!commands) return std::unexpected(commands.error());
+  if (auto ok = submit(std::move(*commands)); !ok) return std::unexpected(ok.error());
+  if (auto ok = wait_idle(); !ok) return std::unexpected(ok.error());
+  std::vector<std::byte> out(bytes);
+  std::memcpy(out.data(), stage->mapped_, bytes);
+  return out;
+}
+
+Result<std::vector<std::byte>> Queue::read_buffer(const Buffer& buffer, std::uint64_t offset, std::uint64_t size) {
+  const std::uint64_t n = size ? size : buffer.size() - std::min(offset, buffer.size());
+  if (offset + n > buffer.size() || n == 0)
+    return fail(ErrorKind::InvalidArgument, "reading [{}, {}) of buffer '{}' of {} bytes", offset, offset + n,
+                buffer.label(), buffer.size());
+  if (buffer.mapped_) {
+    if (auto ok = wait_idle(); !ok) return std::unexpected(ok.error());
+    return std::vector<std::byte>(buffer.mapped_ + offset, buffer.mapped_ + offset + n);
+  }
+  auto stage = DeviceShared::make_buffer(device_, {buffer.label() + " (readback)", n, BufferUsage::MapRead}, {});
+  if (!stage) return std::unexpected(stage.error());
+  auto encoder = DeviceShared::make_encoder(device_, "read_buffer");
+  if (!encoder) return std::unexpected(encoder.error());
+  // Whatever wrote the buffer before (shader, copy) must finish before the copy reads it.
+  const BufferBarrier before[] = {{&buffer, Access::StorageWrite, Access::CopySrc}, {&buffer, Access::CopyDst, Access::CopySrc}};
+  encoder->barrier({}, before);
+  encoder->copy_buffer_to_buffer(buffer, offset, *stage, 0, n);
+  const BufferBarrier host{&*stage, Access::CopyDst, Access::HostRead};
+  encoder->barrier({}, std::span(&host, 1));
+  auto commands = encoder->finish();
+  if (!commands) return std::unexpected(commands.error());
+  if (auto ok = submit(std::move(*commands)); !ok) return std::unexpected(ok.error());
+  if (auto ok = wait_idle(); !ok) return std::unexpected(ok.error());
+  return std::vector<std::byte>(stage->mapped_, stage->mapped_ + n);
+}
+
+}  // namespace weft::gpu
+
+namespace weft::gpu::detail {
+
+Result<CommandEncoder> DeviceShared::make_encoder(const std::shared_ptr<DeviceShared>& self, std::string_view label) {
+  VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  alloc.commandPool = self->command_pool;
+  alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  alloc.commandBufferCount = 1;
+  CommandEncoder encoder;
+  encoder.device_ = self;
+  encoder.label_ = label;
+  if (VkResult r = vkAllocateCommandBuffers(self->device, &alloc, &encoder.cmd_); r != VK_SUCCESS)
+    return std::unexpected(vk_error(r, weft::format("creating command encoder '{}'", label)));
+  self->set_name(VK_OBJECT_TYPE_COMMAND_BUFFER, std::uint64_t(encoder.cmd_), label);
+  VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  vkBeginCommandBuffer(encoder.cmd_, &begin);
+  return encoder;
+}
+
+}  // namespace weft::gpu::detail

@@ -1,0 +1,18 @@
+# Install rules and an exported package: a user's project does
+#   find_package(weft REQUIRED)   target_link_libraries(app PRIVATE weft::weft)
+include(GNUInstallDirs)
+include(CMakePackageConfigHelpers)
+get_property(weft_libs GLOBAL PROPERTY WEFT_LIBRARIES)
+install(TARGETS weft ${weft_libs} EXPORT weftTargets
+  ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR}
+  FILE_SET CXX_MODULES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/weft/modules
+  CXX_MODULES_BMI DESTINATION ${CMAKE_INSTALL_LIBDIR}/weft/bmi)
+install(EXPORT weftTargets NAMESPACE weft:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/weft
+  CXX_MODULES_DIRECTORY modules)
+configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/weftConfig.cmake.in
+  ${PROJECT_BINARY_DIR}/weftConfig.cmake INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/weft)
+write_basic_package_version_file(${PROJECT_BINARY_DIR}/weftConfigVersion.cmake COMPATIBILITY SameMinorVersion)
+install(FILES ${PROJECT_BINARY_DIR}/weftConfig.cmake ${PROJECT_BINARY_DIR}/weftConfigVersion.cmake
+  DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/weft)

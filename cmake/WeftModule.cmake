@@ -1,0 +1,16 @@
+# weft_module(<target> INTERFACE <.cppm...> SOURCES <.cpp...> LINK <targets...>)
+# One folder = one C++20 module = one library target.
+function(weft_module target)
+  cmake_parse_arguments(ARG "" "" "INTERFACE;SOURCES;LINK;PRIVATE_LINK" ${ARGN})
+  add_library(${target} STATIC)
+  add_library(weft::${target} ALIAS ${target})
+  target_sources(${target}
+    PUBLIC FILE_SET CXX_MODULES BASE_DIRS ${CMAKE_CURRENT_SOURCE_DIR} FILES ${ARG_INTERFACE})
+  if(ARG_SOURCES)
+    target_sources(${target} PRIVATE ${ARG_SOURCES})
+  endif()
+  target_compile_features(${target} PUBLIC cxx_std_23)
+  target_link_libraries(${target} PUBLIC ${ARG_LINK} PRIVATE ${ARG_PRIVATE_LINK})
+  weft_warnings(${target})
+  set_property(GLOBAL APPEND PROPERTY WEFT_LIBRARIES ${target})
+endfunction()

@@ -1,0 +1,32 @@
+# weft_add_shaders(<target> <glsl files...>): compiles GLSL to SPIR-V at build time with
+# glslangValidator and embeds each as `std::span<const uint32_t> weft::shaders::<name>()`,
+# so built-in passes ship no loose files and shader errors fail the build, not the frame.
+function(weft_add_shaders target)
+  set(generated_headers)
+  set(gen_dir ${CMAKE_CURRENT_BINARY_DIR}/shaders)
+  file(MAKE_DIRECTORY ${gen_dir})
+  set(decls "")
+  set(defs "")
+  foreach(src ${ARGN})
+    get_filename_component(abs ${src} ABSOLUTE)
+    get_filename_component(fname ${src} NAME)
+    string(MAKE_C_IDENTIFIER ${fname} ident)
+    set(header ${gen_dir}/${fname}.spv.h)
+    add_custom_command(
+      OUTPUT ${header}
+      COMMAND ${GLSLANG_VALIDATOR} --quiet -V --target-env vulkan1.3 -I${PROJECT_SOURCE_DIR}/shaders
+              -I${CMAKE_CURRENT_SOURCE_DIR} --vn spv_${ident} -o ${header} ${abs}
+      DEPENDS ${abs}
+      IMPLICIT_DEPENDS CXX ${abs}
+      COMMENT "glslang ${fname}"
+      VERBATIM)
+    list(APPEND generated_headers ${header})
+    string(APPEND decls "#include \"${fname}.spv.h\"\n")
+    string(APPEND defs "std::span<const std::uint32_t> ${ident}() { return spv_${ident}; }\n")
+  endforeach()
+  set(cpp ${gen_dir}/${target}_shaders.cpp)
+  file(WRITE ${cpp}.in "#include <cstdint>\n#include <span>\n${decls}namespace weft::shaders {\n${defs}}\n")
+  configure_file(${cpp}.in ${cpp} COPYONLY)
+  target_sources(${target} PRIVATE ${cpp} ${generated_headers})
+  target_include_directories(${target} PRIVATE ${gen_dir})
+endfunction()

@@ -1,0 +1,125 @@
+// weft.core — what every weft module shares: errors as values (Result/Error), logging,
+// GLM math aliases and content hashing. Nothing here knows about GPUs, graphs or scenes.
+module;
+#include <cstdint>
+#include <expected>
+#include <span>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <glm/glm.hpp>
+export module weft.core;
+
+export namespace weft {
+
+// What kind of failure an Error is; callers branch on this, users read the message.
+enum class ErrorKind : std::uint8_t {
+  InvalidArgument,  // a bad descriptor or parameter: misuse of an API
+  NotFound,         // a file, adapter, layer or named thing that is not there
+  Io,               // reading or writing a file failed
+  Parse,            // a file exists but its content is malformed
+  Shader,           // GLSL did not compile or link
+  Device,           // the Vulkan driver refused (out of memory, lost device, ...)
+  Unsupported,      // the adapter or format cannot do what was asked
+  Graph,            // the render graph is impossible (cycle, missing writer, ...)
+  Internal,         // a bug in weft
+};
+
+constexpr std::string_view to_string(ErrorKind kind) {
+  switch (kind) {
+    case ErrorKind::InvalidArgument: return "invalid argument";
+    case ErrorKind::NotFound: return "not found";
+    case ErrorKind::Io: return "i/o error";
+    case ErrorKind::Parse: return "parse error";
+    case ErrorKind::Shader: return "shader error";
+    case ErrorKind::Device: return "device error";
+    case ErrorKind::Unsupported: return "unsupported";
+    case ErrorKind::Graph: return "graph error";
+    case ErrorKind::Internal: return "internal error";
+  }
+  return "error";
+}
+
+struct Error {
+  ErrorKind kind = ErrorKind::Internal;
+  std::string message;
+
+  // "shader error: ..." — one line a user can act on.
+  [[nodiscard]] std::string what() const { return std::string(to_string(kind)) + ": " + message; }
+};
+
+template <class T>
+using Result = std::expected<T, Error>;
+
+// libstdc++ 12 (Debian 12) has no <format>: weft::format is {fmt}'s, with the same syntax.
+template <class... Args>
+[[nodiscard]] std::string format(fmt::format_string<Args...> f, Args&&... args) {
+  return fmt::vformat(f, fmt::make_format_args(args...));
+}
+
+// Builds an unexpected Error with a weft::format message:
+//   return fail(ErrorKind::NotFound, "mesh '{}' not found", path);
+template <class... Args>
+[[nodiscard]] std::unexpected<Error> fail(ErrorKind kind, fmt::format_string<Args...> f, Args&&... args) {
+  return std::unexpected(Error{kind, fmt::vformat(f, fmt::make_format_args(args...))});
+}
+
+// Adds context in front of an error as it travels up: "loading scene 'a.json': <inner>".
+[[nodiscard]] inline std::unexpected<Error> with_context(std::string_view context, Error inner) {
+  inner.message = std::string(context) + ": " + inner.message;
+  return std::unexpected(std::move(inner));
+}
+
+// ---- math ----------------------------------------------------------------------------
+using vec2 = glm::vec2;
+using vec3 = glm::vec3;
+using vec4 = glm::vec4;
+using ivec2 = glm::ivec2;
+using uvec2 = glm::uvec2;
+using uvec3 = glm::uvec3;
+using mat3 = glm::mat3;
+using mat4 = glm::mat4;
+using quat = glm::qua<float>;
+inline constexpr float pi = 3.14159265358979323846f;
+
+// ---- hashing -------------------------------------------------------------------------
+// 64-bit FNV-1a: stable across runs and machines, so it can key on-disk caches.
+struct Hasher {
+  std::uint64_t state = 0xcbf29ce484222325ull;
+  Hasher& bytes(const void* data, std::size_t size) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < size; ++i) {
+      state ^= p[i];
+      state *= 0x100000001b3ull;
+    }
+    return *this;
+  }
+  Hasher& str(std::string_view s) {
+    const std::uint64_t n = s.size();
+    bytes(&n, sizeof n);
+    return bytes(s.data(), s.size());
+  }
+  template <class T>
+  Hasher& value(const T& v) { return bytes(&v, sizeof v); }
+  [[nodiscard]] std::uint64_t digest() const { return state; }
+};
+
+inline std::uint64_t hash_bytes(std::span<const std::byte> data) {
+  return Hasher{}.bytes(data.data(), data.size()).digest();
+}
+inline std::string hex64(std::uint64_t v) { return fmt::format("{:016x}", v); }
+
+// ---- logging -------------------------------------------------------------------------
+// Thin wrappers over spdlog so modules need not include it; the level comes from
+// WEFT_LOG (trace, debug, info, warn, error, off), default info.
+namespace log {
+void info(std::string_view message);
+void warn(std::string_view message);
+void error(std::string_view message);
+void debug(std::string_view message);
+void set_level(std::string_view level);
+}  // namespace log
+
+}  // namespace weft
