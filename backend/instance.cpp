@@ -242,10 +242,11 @@ Result<Adapter> Instance::request_adapter(const AdapterOptions& options) const {
     return fail(ErrorKind::NotFound, "no Vulkan 1.3 adapter matches{} (adapters: {})",
                 opts.name_contains.empty() ? std::string() : " '" + opts.name_contains + "'", names);
   }
-  std::stable_sort(candidates.begin(), candidates.end(), [&](auto& a, auto& b) {
+  // The best-ranked adapter; ties keep the driver's enumeration order.
+  auto best = std::min_element(candidates.begin(), candidates.end(), [&](auto& a, auto& b) {
     return preference_rank(a.second.type, opts.preference) < preference_rank(b.second.type, opts.preference);
   });
-  return Adapter(shared_, candidates.front().first, std::move(candidates.front().second));
+  return Adapter(shared_, best->first, std::move(best->second));
 }
 
 // ---- device -------------------------------------------------------------------------
@@ -349,11 +350,11 @@ void DeviceShared::set_name(VkObjectType type, std::uint64_t handle, std::string
       vkGetInstanceProcAddr(instance->instance, "vkSetDebugUtilsObjectNameEXT"));
   if (!fn) return;
   std::string n(name);
-  VkDebugUtilsObjectNameInfoEXT info{VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT};
-  info.objectType = type;
-  info.objectHandle = handle;
-  info.pObjectName = n.c_str();
-  fn(device, &info);
+  VkDebugUtilsObjectNameInfoEXT name_info{VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT};
+  name_info.objectType = type;
+  name_info.objectHandle = handle;
+  name_info.pObjectName = n.c_str();
+  fn(device, &name_info);
 }
 
 Result<void> DeviceShared::wait_idle() {

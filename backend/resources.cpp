@@ -44,12 +44,11 @@ Result<std::unique_ptr<Allocation>> DeviceShared::allocate(const VkMemoryRequire
                                                            VkMemoryPropertyFlags preferred, std::string_view label) {
   auto type = find_memory_type(req.memoryTypeBits, required, preferred);
   if (!type) return with_context(weft::format("allocating memory for '{}'", label), type.error());
-  VkMemoryAllocateInfo info{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-  info.allocationSize = req.size;
-  info.memoryTypeIndex = *type;
+  VkMemoryAllocateInfo allocate_info{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  allocate_info.allocationSize = req.size;
+  allocate_info.memoryTypeIndex = *type;
   auto alloc = std::make_unique<Allocation>();
-  alloc->device = nullptr;
-  if (VkResult r = vkAllocateMemory(device, &info, nullptr, &alloc->memory); r != VK_SUCCESS)
+  if (VkResult r = vkAllocateMemory(device, &allocate_info, nullptr, &alloc->memory); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("allocating {} bytes for '{}'", req.size, label)));
   alloc->size = req.size;
   allocated_bytes += req.size;
