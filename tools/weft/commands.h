@@ -1,0 +1,10 @@
+// Sub-commands of the `weft` command line; each registers itself on the CLI11 app and
+// returns the process exit code when run (0 ok, non-zero with a one-line reason on stderr).
+#pragma once
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace weft::cli {
+using Command = std::function<int()>;
+Command add_info(CLI::App& app);
+}  // namespace weft::cli
