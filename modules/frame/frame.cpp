@@ -1,0 +1,114 @@
+module;
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <expected>
+#include <span>
+#include <string>
+#include <vector>
+#include <glm/gtc/matrix_transform.hpp>
+module weft.frame;
+import weft.core;
+import weft.gpu;
+
+namespace weft::frame {
+
+gpu::VertexBufferLayout vertex_layout() {
+  return {.stride = sizeof(Vertex),
+          .attributes = {{gpu::VertexFormat::Float32x3, offsetof(Vertex, position), 0},
+                         {gpu::VertexFormat::Float32, offsetof(Vertex, curvature), 1},
+                         {gpu::VertexFormat::Float32x3, offsetof(Vertex, normal), 2},
+                         {gpu::VertexFormat::Float32x4, offsetof(Vertex, tangent), 3},
+                         {gpu::VertexFormat::Float32x2, offsetof(Vertex, uv), 4}}};
+}
+
+Result<GpuMesh> upload_mesh(gpu::Device& device, const MeshData& mesh) {
+  if (mesh.vertices.empty() || mesh.indices.empty())
+    return fail(ErrorKind::InvalidArgument, "mesh '{}': no vertices or no triangles", mesh.name);
+  if (mesh.indices.size() % 3 != 0)
+    return fail(ErrorKind::InvalidArgument, "mesh '{}': {} indices is not a multiple of 3", mesh.name, mesh.indices.size());
+  const auto max_index = *std::max_element(mesh.indices.begin(), mesh.indices.end());
+  if (max_index >= mesh.vertices.size())
+    return fail(ErrorKind::InvalidArgument, "mesh '{}': index {} >= vertex count {}", mesh.name, max_index,
+                mesh.vertices.size());
+  auto vb = device.create_buffer_with_data({.label = mesh.name + ".vertices", .usage = gpu::BufferUsage::Vertex},
+                                           std::as_bytes(std::span(mesh.vertices)));
+  if (!vb) return std::unexpected(vb.error());
+  auto ib = device.create_buffer_with_data({.label = mesh.name + ".indices", .usage = gpu::BufferUsage::Index},
+                                           std::as_bytes(std::span(mesh.indices)));
+  if (!ib) return std::unexpected(ib.error());
+  GpuMesh out{mesh.name, std::move(*vb), std::move(*ib), std::uint32_t(mesh.indices.size()),
+              std::uint32_t(mesh.vertices.size())};
+  out.bounds_min = out.bounds_max = mesh.vertices[0].position;
+  for (const auto& v : mesh.vertices) {
+    out.bounds_min = glm::min(out.bounds_min, v.position);
+    out.bounds_max = glm::max(out.bounds_max, v.position);
+  }
+  return out;
+}
+
+std::string_view to_string(Feature feature) {
+  switch (feature) {
+    case Feature::Standard: return "standard";
+    case Feature::Fur: return "fur";
+    case Feature::Skin: return "skin";
+    case Feature::NeuralBtf: return "neural_btf";
+    case Feature::SsdfLit: return "ssdf";
+  }
+  return "?";
+}
+
+namespace {
+std::array<float, 9> sh_basis(vec3 d) {
+  return {0.282095f,
+          0.488603f * d.y,
+          0.488603f * d.z,
+          0.488603f * d.x,
+          1.092548f * d.x * d.y,
+          1.092548f * d.y * d.z,
+          0.315392f * (3.0f * d.z * d.z - 1.0f),
+          1.092548f * d.x * d.z,
+          0.546274f * (d.x * d.x - d.y * d.y)};
+}
+}  // namespace
+
+std::array<vec4, 9> irradiance_sh(std::span<const float> rgb, std::uint32_t width, std::uint32_t height,
+                                  float rotation_radians) {
+  std::array<glm::dvec3, 9> radiance{};
+  const double dphi = 2.0 * pi / width, dtheta = pi / double(height);
+  for (std::uint32_t y = 0; y < height; ++y) {
+    const double theta = (y + 0.5) * dtheta;
+    const double solid_angle = dphi * dtheta * std::sin(theta);
+    for (std::uint32_t x = 0; x < width; ++x) {
+      // Equirect convention shared with shaders/frame.glsl: u = atan(z, x) / 2π + 0.5, v = θ / π.
+      const double phi = ((x + 0.5) / width - 0.5) * 2.0 * pi + rotation_radians;
+      const vec3 d{float(std::sin(theta) * std::cos(phi)), float(std::cos(theta)), float(std::sin(theta) * std::sin(phi))};
+      const std::size_t i = (std::size_t(y) * width + x) * 3;
+      glm::dvec3 L{rgb[i], rgb[i + 1], rgb[i + 2]};
+      if (!std::isfinite(L.x) || !std::isfinite(L.y) || !std::isfinite(L.z)) continue;
+      const auto basis = sh_basis(d);
+      for (int k = 0; k < 9; ++k) radiance[k] += L * double(basis[k]) * solid_angle;
+    }
+  }
+  // Cosine-lobe convolution weights per band: π, 2π/3, π/4.
+  const double band[9] = {pi, 2 * pi / 3, 2 * pi / 3, 2 * pi / 3, pi / 4, pi / 4, pi / 4, pi / 4, pi / 4};
+  std::array<vec4, 9> out{};
+  for (int k = 0; k < 9; ++k) out[k] = vec4(vec3(radiance[k] * band[k]), 0.0f);
+  return out;
+}
+
+vec3 evaluate_sh(const std::array<vec4, 9>& sh, vec3 n) {
+  const auto basis = sh_basis(n);
+  vec3 e{0.0f};
+  for (int k = 0; k < 9; ++k) e += vec3(sh[k]) * basis[k];
+  return e;
+}
+
+mat4 perspective_vk(float fov, float aspect, float near_plane, float far_plane) {
+  mat4 p = glm::perspectiveRH_ZO(fov, aspect, near_plane, far_plane);
+  p[1][1] *= -1.0f;
+  return p;
+}
+
+}  // namespace weft::frame
