@@ -1,0 +1,485 @@
+// Declaration: RenderGraph, PassBuilder and Blackboard record passes, resources, versions
+// and accesses into flat arrays. Mistakes are recorded here and reported by compile(),
+// together with everything compile() finds, so a user sees every problem at once.
+module;
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+module weft.graph;
+import weft.core;
+import weft.gpu;
+
+namespace weft::detail {
+
+void* Arena::allocate(std::size_t size, std::size_t alignment) {
+  auto aligned_cursor = [&]() -> std::byte* {
+    const auto address = reinterpret_cast<std::uintptr_t>(cursor_);
+    const std::uintptr_t aligned = (address + alignment - 1) & ~(std::uintptr_t(alignment) - 1);
+    return reinterpret_cast<std::byte*>(aligned);
+  };
+  if (cursor_ != nullptr) {
+    std::byte* p = aligned_cursor();
+    const std::size_t padding = std::size_t(p - cursor_);
+    if (padding + size <= left_) {
+      left_ -= padding + size;
+      cursor_ = p + size;
+      return p;
+    }
+  }
+  const std::size_t block_size = std::max<std::size_t>(16 * 1024, size + alignment);
+  blocks_.push_back(std::make_unique_for_overwrite<std::byte[]>(block_size));
+  cursor_ = blocks_.back().get();
+  left_ = block_size;
+  std::byte* p = aligned_cursor();
+  left_ -= std::size_t(p - cursor_) + size;
+  cursor_ = p + size;
+  return p;
+}
+
+std::string_view Arena::copy(std::string_view text) {
+  if (text.empty()) return {};
+  auto* p = static_cast<char*>(allocate(text.size(), 1));
+  std::memcpy(p, text.data(), text.size());
+  return {p, text.size()};
+}
+
+GraphData::GraphData(std::string_view graph_name) : name(graph_name) {
+  blackboard.graph_ = this;
+  passes.reserve(64);
+  resources.reserve(64);
+  versions.reserve(128);
+  accesses.reserve(192);
+}
+
+GraphData::~GraphData() {
+  for (PassNode& pass : passes)
+    if (pass.execute.destroy) pass.execute.destroy(pass.execute.callable, pass.execute.data);
+}
+
+std::string GraphData::describe(std::uint32_t resource) const {
+  if (resource >= resources.size()) return weft::format("resource #{}", resource);
+  const ResourceNode& r = resources[resource];
+  return weft::format("{} '{}'", r.type == ResourceType::Texture ? "texture" : "buffer", r.name);
+}
+
+std::uint32_t GraphData::find_slot(std::uint32_t resource, std::uint32_t version) const {
+  if (resource >= resources.size()) return invalid_index;
+  std::uint32_t slot = resources[resource].latest_slot;
+  while (slot != invalid_index && versions[slot].version > version) slot = versions[slot].previous;
+  return slot != invalid_index && versions[slot].version == version ? slot : invalid_index;
+}
+
+void* arena_allocate(GraphData& graph, std::size_t size, std::size_t alignment) {
+  return graph.arena.allocate(size, alignment);
+}
+
+namespace {
+
+void add_error(GraphData& g, GraphErrorKind kind, std::string message, std::vector<std::string> passes,
+               std::vector<std::string> resources) {
+  g.declaration_errors.push_back(GraphError{kind, std::move(message), std::move(passes), std::move(resources)});
+}
+
+std::uint32_t new_version(GraphData& g, std::uint32_t resource, std::uint32_t producer) {
+  ResourceNode& r = g.resources[resource];
+  const std::uint32_t version = r.latest_slot == invalid_index ? 0 : g.versions[r.latest_slot].version + 1;
+  const auto slot = std::uint32_t(g.versions.size());
+  g.versions.push_back(VersionNode{resource, version, producer, invalid_index, r.latest_slot});
+  r.latest_slot = slot;
+  return slot;
+}
+
+std::uint32_t add_resource(GraphData& g, std::string_view name, ResourceType type, std::uint32_t creator) {
+  const auto index = std::uint32_t(g.resources.size());
+  ResourceNode& r = g.resources.emplace_back();
+  r.name = g.arena.copy(name);
+  r.type = type;
+  r.creator = creator;
+  new_version(g, index, invalid_index);
+  return index;
+}
+
+// The state one pass's two declarations of one resource combine into, if they can: a pass
+// is in one state per resource, because a barrier moves a whole resource to one state.
+std::optional<gpu::Access> merge_access(gpu::Access a, gpu::Access b) {
+  using A = gpu::Access;
+  if (a == b) return a;
+  auto either = [&](A x, A y) { return (a == x && b == y) || (a == y && b == x); };
+  if (either(A::StorageRead, A::StorageWrite)) return A::StorageWrite;
+  if (either(A::DepthRead, A::DepthAttachment)) return A::DepthAttachment;
+  if (either(A::ShaderRead, A::DepthRead)) return A::DepthRead;  // same layout; DepthRead covers shaders
+  return std::nullopt;
+}
+
+std::string use_names(std::uint16_t uses, ResourceType type) {
+  std::string out;
+  for (unsigned bit = 0; bit < 8; ++bit) {
+    if (!(uses & (1u << bit))) continue;
+    if (!out.empty()) out += "+";
+    out += type == ResourceType::Texture ? to_string(TextureUse(bit)) : to_string(BufferUse(bit));
+  }
+  return out;
+}
+
+// Records one use of one resource by the current pass; returns the version the pass leaves
+// the resource at (the input version for reads, the next version for writes).
+std::uint32_t declare(GraphData& g, std::uint32_t pass, ResourceType type, std::uint32_t resource,
+                      std::uint32_t version, std::uint16_t use, bool write, gpu::Access access,
+                      std::string_view use_name) {
+  const std::string_view pass_name = g.passes[pass].name;
+  const std::string_view type_name = type == ResourceType::Texture ? "texture" : "buffer";
+  if (resource >= g.resources.size() || g.resources[resource].type != type) {
+    add_error(g, GraphErrorKind::InvalidHandle,
+              weft::format("pass '{}': {}s a {} through an invalid handle (index {}, version {})", pass_name,
+                          write ? "write" : "read", type_name, resource, version),
+              {std::string(pass_name)}, {});
+    return version;
+  }
+  const std::uint32_t slot = g.find_slot(resource, version);
+  if (slot == invalid_index) {
+    add_error(g, GraphErrorKind::InvalidHandle,
+              weft::format("pass '{}': uses {} version {}, which does not exist (latest is version {})", pass_name,
+                          g.describe(resource), version, g.versions[g.resources[resource].latest_slot].version),
+              {std::string(pass_name)}, {std::string(g.resources[resource].name)});
+    return version;
+  }
+
+  // A second declaration of the same resource by this pass merges into the first.
+  const PassNode& p = g.passes[pass];
+  for (std::uint32_t i = p.first_access; i < g.accesses.size(); ++i) {
+    AccessNode& existing = g.accesses[i];
+    if (existing.resource != resource) continue;
+    const bool same_input = slot == existing.slot;
+    const bool own_output = existing.writes() && slot == existing.out_slot;
+    const auto merged = merge_access(existing.access, access);
+    if ((!same_input && !own_output) || !merged) {
+      add_error(g, GraphErrorKind::ConflictingUsage,
+                merged ? weft::format("pass '{}': declares {} at two versions ({} and {}); a pass sees one version "
+                                     "of a resource",
+                                     pass_name, g.describe(resource), g.versions[existing.slot].version, version)
+                       : weft::format("pass '{}': uses {} both as {} and as {}; a pass can use a resource one way at "
+                                     "a time",
+                                     pass_name, g.describe(resource), use_names(existing.uses, type), use_name),
+                {std::string(pass_name)}, {std::string(g.resources[resource].name)});
+      return version;
+    }
+    existing.access = *merged;
+    existing.uses |= use;
+    if (own_output) {
+      existing.reads = existing.reads || !write;
+      return g.versions[existing.out_slot].version;
+    }
+    if (!write) {
+      existing.reads = true;
+      return version;
+    }
+    if (!existing.writes()) {
+      existing.out_slot = new_version(g, resource, pass);
+      g.versions[existing.slot].next_writer = pass;
+    }
+    return g.versions[existing.out_slot].version;
+  }
+
+  AccessNode a;
+  a.resource = resource;
+  a.slot = slot;
+  a.access = access;
+  a.uses = use;
+  a.reads = !write;
+  if (write) {
+    VersionNode& input = g.versions[slot];
+    if (input.next_writer != invalid_index) {
+      const std::string_view other = g.passes[input.next_writer].name;
+      add_error(g, GraphErrorKind::MultipleWriters,
+                weft::format("{} (version {}) has two writers: pass '{}' and pass '{}' both write it; write the "
+                            "handle the first write returns to order them",
+                            g.describe(resource), version, other, pass_name),
+                {std::string(other), std::string(pass_name)}, {std::string(g.resources[resource].name)});
+    } else {
+      input.next_writer = pass;
+    }
+    a.out_slot = new_version(g, resource, pass);
+  }
+  g.accesses.push_back(a);
+  return write ? g.versions[a.out_slot].version : version;
+}
+
+void check_direction(GraphData& g, std::uint32_t pass, std::uint32_t resource, bool declared_write, bool use_writes,
+                     std::string_view use_name) {
+  if (declared_write == use_writes) return;
+  const std::string_view pass_name = g.passes[pass].name;
+  const std::string what = resource < g.resources.size() ? g.describe(resource) : std::string("a resource");
+  add_error(g, GraphErrorKind::ConflictingUsage,
+            declared_write ? weft::format("pass '{}': writes {} with usage {}, which only reads; use read()", pass_name,
+                                         what, use_name)
+                           : weft::format("pass '{}': reads {} with usage {}, which writes; use write() and keep the "
+                                         "handle it returns",
+                                         pass_name, what, use_name),
+            {std::string(pass_name)}, resource < g.resources.size() ? std::vector<std::string>{std::string(g.resources[resource].name)}
+                                                                    : std::vector<std::string>{});
+}
+
+void check_texture_desc(GraphData& g, std::uint32_t resource, const TextureDesc& desc, std::string_view pass_name) {
+  std::string problem;
+  if (desc.format == gpu::Format::Undefined) problem = "an undefined format";
+  else if (desc.mip_level_count == 0) problem = "zero mip levels";
+  else if (!desc.size.is_relative && (desc.size.absolute.width == 0 || desc.size.absolute.height == 0 ||
+                                      desc.size.absolute.depth_or_layers == 0))
+    problem = weft::format("a zero size ({})", format_extent(desc.size.absolute));
+  else if (desc.size.is_relative && !(desc.size.relative.width > 0.0f && desc.size.relative.height > 0.0f))
+    problem = weft::format("a relative size of {}x{}, which is not positive", desc.size.relative.width,
+                          desc.size.relative.height);
+  if (problem.empty()) return;
+  add_error(g, GraphErrorKind::InvalidDescriptor,
+            pass_name.empty() ? weft::format("{} has {}", g.describe(resource), problem)
+                              : weft::format("pass '{}': creates {} with {}", pass_name, g.describe(resource), problem),
+            pass_name.empty() ? std::vector<std::string>{} : std::vector<std::string>{std::string(pass_name)},
+            {std::string(g.resources[resource].name)});
+}
+
+}  // namespace
+
+PassBuilder begin_pass(GraphData& g, std::string_view name, const ErasedExecute& execute) {
+  const auto index = std::uint32_t(g.passes.size());
+  if (g.current_pass != invalid_index) {
+    add_error(g, GraphErrorKind::InvalidDescriptor,
+              weft::format("pass '{}' is added inside the setup of pass '{}'; add passes one after another", name,
+                          g.passes[g.current_pass].name),
+              {std::string(name), std::string(g.passes[g.current_pass].name)}, {});
+  }
+  PassNode& pass = g.passes.emplace_back();
+  pass.name = g.arena.copy(name);
+  pass.first_access = std::uint32_t(g.accesses.size());
+  pass.execute = execute;
+  g.current_pass = index;
+  return PassBuilder(&g, index);
+}
+
+void end_pass(GraphData& g, std::uint32_t pass) {
+  g.passes[pass].access_count = std::uint32_t(g.accesses.size()) - g.passes[pass].first_access;
+  g.current_pass = invalid_index;
+}
+
+std::uint32_t builder_pass(const PassBuilder& builder) { return builder.pass_; }
+
+std::string format_extent(gpu::Extent3D e) {
+  return e.depth_or_layers > 1 ? weft::format("{}x{}x{}", e.width, e.height, e.depth_or_layers)
+                               : weft::format("{}x{}", e.width, e.height);
+}
+
+}  // namespace weft::detail
+
+namespace weft {
+
+using detail::GraphData;
+
+// ---- PassBuilder ---------------------------------------------------------------------------
+
+TextureHandle PassBuilder::create_texture(std::string_view name, const TextureDesc& desc) {
+  const std::uint32_t index = detail::add_resource(*graph_, name, ResourceType::Texture, pass_);
+  graph_->resources[index].texture_desc = desc;
+  detail::check_texture_desc(*graph_, index, desc, graph_->passes[pass_].name);
+  return {index, 0};
+}
+
+BufferHandle PassBuilder::create_buffer(std::string_view name, const BufferDesc& desc) {
+  const std::uint32_t index = detail::add_resource(*graph_, name, ResourceType::Buffer, pass_);
+  graph_->resources[index].buffer_desc = desc;
+  if (desc.size == 0)
+    detail::add_error(*graph_, GraphErrorKind::InvalidDescriptor,
+                      weft::format("pass '{}': creates buffer '{}' with a zero size", graph_->passes[pass_].name, name),
+                      {std::string(graph_->passes[pass_].name)}, {std::string(name)});
+  return {index, 0};
+}
+
+TextureHandle PassBuilder::read(TextureHandle handle, TextureUse use) {
+  detail::check_direction(*graph_, pass_, handle.index, false, is_write(use), to_string(use));
+  handle.version = detail::declare(*graph_, pass_, ResourceType::Texture, handle.index, handle.version,
+                                   detail::use_bit(use), false, access_of(use), to_string(use));
+  return handle;
+}
+
+BufferHandle PassBuilder::read(BufferHandle handle, BufferUse use) {
+  detail::check_direction(*graph_, pass_, handle.index, false, is_write(use), to_string(use));
+  handle.version = detail::declare(*graph_, pass_, ResourceType::Buffer, handle.index, handle.version,
+                                   detail::use_bit(use), false, access_of(use), to_string(use));
+  return handle;
+}
+
+TextureHandle PassBuilder::write(TextureHandle handle, TextureUse use) {
+  detail::check_direction(*graph_, pass_, handle.index, true, is_write(use), to_string(use));
+  handle.version = detail::declare(*graph_, pass_, ResourceType::Texture, handle.index, handle.version,
+                                   detail::use_bit(use), true, access_of(use), to_string(use));
+  return handle;
+}
+
+BufferHandle PassBuilder::write(BufferHandle handle, BufferUse use) {
+  detail::check_direction(*graph_, pass_, handle.index, true, is_write(use), to_string(use));
+  handle.version = detail::declare(*graph_, pass_, ResourceType::Buffer, handle.index, handle.version,
+                                   detail::use_bit(use), true, access_of(use), to_string(use));
+  return handle;
+}
+
+void PassBuilder::side_effect() { graph_->passes[pass_].side_effect = true; }
+
+void PassBuilder::kind(PassKind kind) {
+  graph_->passes[pass_].declared_kind = kind;
+  graph_->passes[pass_].kind_declared = true;
+}
+
+Blackboard& PassBuilder::blackboard() { return graph_->blackboard; }
+std::string_view PassBuilder::pass_name() const { return graph_->passes[pass_].name; }
+
+// ---- Blackboard ----------------------------------------------------------------------------
+
+void Blackboard::put(std::string_view key, TextureHandle handle) {
+  put_entry(key, ResourceType::Texture, handle.index, handle.version);
+}
+void Blackboard::put(std::string_view key, BufferHandle handle) {
+  put_entry(key, ResourceType::Buffer, handle.index, handle.version);
+}
+
+void Blackboard::put_entry(std::string_view key, ResourceType type, std::uint32_t index, std::uint32_t version) {
+  for (Entry& e : entries_) {
+    if (e.key == key) {
+      e.type = type;
+      e.index = index;
+      e.version = version;
+      return;
+    }
+  }
+  entries_.push_back(Entry{std::string(key), type, index, version});
+}
+
+std::optional<std::pair<std::uint32_t, std::uint32_t>> Blackboard::find_entry(std::string_view key,
+                                                                              ResourceType type) const {
+  for (const Entry& e : entries_)
+    if (e.key == key && e.type == type) return std::pair{e.index, e.version};
+  return std::nullopt;
+}
+
+bool Blackboard::contains(std::string_view key) const {
+  return std::any_of(entries_.begin(), entries_.end(), [&](const Entry& e) { return e.key == key; });
+}
+
+std::vector<std::string> Blackboard::keys() const {
+  std::vector<std::string> out;
+  out.reserve(entries_.size());
+  for (const Entry& e : entries_) out.push_back(e.key);
+  return out;
+}
+
+Error Blackboard::missing(std::string_view key, ResourceType type) const {
+  const std::string_view asker = graph_ ? graph_->current_pass_name() : std::string_view{};
+  const std::string prefix = asker.empty() ? std::string() : weft::format("pass '{}': ", asker);
+  const std::string_view wanted = type == ResourceType::Texture ? "texture" : "buffer";
+  for (const Entry& e : entries_) {
+    if (e.key == key)
+      return Error{ErrorKind::InvalidArgument,
+                   weft::format("{}blackboard entry '{}' is a {}, not a {}", prefix, key,
+                               e.type == ResourceType::Texture ? "texture" : "buffer", wanted)};
+  }
+  std::string held;
+  for (const Entry& e : entries_) held += weft::format("{}'{}'", held.empty() ? "" : ", ", e.key);
+  return Error{ErrorKind::NotFound, weft::format("{}blackboard has no {} named '{}' ({})", prefix, wanted, key,
+                                                held.empty() ? std::string("it is empty") : "it holds " + held)};
+}
+
+// ---- RenderGraph ---------------------------------------------------------------------------
+
+RenderGraph::RenderGraph(std::string_view name) : data_(std::make_shared<GraphData>(name)) {}
+RenderGraph::RenderGraph(RenderGraph&&) noexcept = default;
+RenderGraph& RenderGraph::operator=(RenderGraph&&) noexcept = default;
+RenderGraph::~RenderGraph() = default;
+
+TextureHandle RenderGraph::import_texture(std::string_view name, const gpu::Texture* texture,
+                                          gpu::Access initial_state) {
+  if (texture == nullptr) {
+    const std::uint32_t index = detail::add_resource(*data_, name, ResourceType::Texture, invalid_index);
+    data_->resources[index].imported = true;
+    detail::add_error(*data_, GraphErrorKind::InvalidDescriptor,
+                      weft::format("texture '{}' is imported from a null gpu::Texture", name), {}, {std::string(name)});
+    return {index, 0};
+  }
+  gpu::TextureDescriptor desc = texture->descriptor();
+  TextureHandle handle = import_texture(name, desc, initial_state);
+  data_->resources[handle.index].texture = texture;
+  return handle;
+}
+
+TextureHandle RenderGraph::import_texture(std::string_view name, const gpu::TextureDescriptor& desc,
+                                          gpu::Access initial_state) {
+  const std::uint32_t index = detail::add_resource(*data_, name, ResourceType::Texture, invalid_index);
+  detail::ResourceNode& r = data_->resources[index];
+  r.imported = true;
+  r.initial_state = initial_state;
+  r.texture_desc.size = desc.size;
+  r.texture_desc.format = desc.format;
+  r.texture_desc.mip_level_count = desc.mip_level_count;
+  r.texture_desc.dimension = desc.dimension;
+  r.imported_texture_usage = desc.usage;
+  detail::check_texture_desc(*data_, index, r.texture_desc, {});
+  return {index, 0};
+}
+
+BufferHandle RenderGraph::import_buffer(std::string_view name, const gpu::Buffer* buffer, gpu::Access initial_state) {
+  if (buffer == nullptr) {
+    const std::uint32_t index = detail::add_resource(*data_, name, ResourceType::Buffer, invalid_index);
+    data_->resources[index].imported = true;
+    detail::add_error(*data_, GraphErrorKind::InvalidDescriptor,
+                      weft::format("buffer '{}' is imported from a null gpu::Buffer", name), {}, {std::string(name)});
+    return {index, 0};
+  }
+  BufferHandle handle =
+      import_buffer(name, gpu::BufferDescriptor{buffer->label(), buffer->size(), buffer->usage()}, initial_state);
+  data_->resources[handle.index].buffer = buffer;
+  return handle;
+}
+
+BufferHandle RenderGraph::import_buffer(std::string_view name, const gpu::BufferDescriptor& desc,
+                                        gpu::Access initial_state) {
+  const std::uint32_t index = detail::add_resource(*data_, name, ResourceType::Buffer, invalid_index);
+  detail::ResourceNode& r = data_->resources[index];
+  r.imported = true;
+  r.initial_state = initial_state;
+  r.buffer_desc.size = desc.size;
+  r.imported_buffer_usage = desc.usage;
+  return {index, 0};
+}
+
+namespace {
+void mark(GraphData& g, ResourceType type, std::uint32_t index, std::uint32_t version, gpu::Access final_state) {
+  if (index >= g.resources.size() || g.resources[index].type != type) {
+    detail::add_error(g, GraphErrorKind::InvalidHandle,
+                      weft::format("mark_output: invalid {} handle (index {}, version {})",
+                                  type == ResourceType::Texture ? "texture" : "buffer", index, version),
+                      {}, {});
+    return;
+  }
+  g.outputs.push_back(detail::OutputNode{index, version, final_state});
+}
+}  // namespace
+
+void RenderGraph::mark_output(TextureHandle handle, gpu::Access final_state) {
+  mark(*data_, ResourceType::Texture, handle.index, handle.version, final_state);
+}
+void RenderGraph::mark_output(BufferHandle handle, gpu::Access final_state) {
+  mark(*data_, ResourceType::Buffer, handle.index, handle.version, final_state);
+}
+
+Blackboard& RenderGraph::blackboard() { return data_->blackboard; }
+const std::string& RenderGraph::name() const { return data_->name; }
+std::size_t RenderGraph::pass_count() const { return data_->passes.size(); }
+std::size_t RenderGraph::resource_count() const { return data_->resources.size(); }
+std::string_view RenderGraph::resource_name(std::uint32_t index) const {
+  return index < data_->resources.size() ? data_->resources[index].name : std::string_view{};
+}
+
+}  // namespace weft

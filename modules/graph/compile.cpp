@@ -1,0 +1,539 @@
+// compile(), part 1: validate every declaration, cull passes that reach no output, and order
+// the rest. Every step is linear in passes + accesses: each access contributes at most two
+// ordering edges (its version's producer before it; it before the version's next writer).
+module;
+#include <algorithm>
+#include <cstdint>
+#include <expected>
+#include <functional>
+#include <memory>
+#include <queue>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+module weft.graph;
+import weft.core;
+import weft.gpu;
+
+namespace weft::detail {
+
+namespace {
+
+constexpr std::uint16_t attachment_uses = use_bit(TextureUse::ColorAttachment) |
+                                          use_bit(TextureUse::DepthAttachment) | use_bit(TextureUse::DepthRead);
+constexpr std::uint16_t draw_buffer_uses = use_bit(BufferUse::Vertex) | use_bit(BufferUse::Index);
+constexpr std::uint16_t texture_copy_uses = use_bit(TextureUse::CopySrc) | use_bit(TextureUse::CopyDst);
+constexpr std::uint16_t buffer_copy_uses = use_bit(BufferUse::CopySrc) | use_bit(BufferUse::CopyDst);
+
+gpu::TextureUsage texture_usage_of(std::uint16_t uses) {
+  auto usage = gpu::TextureUsage::None;
+  for (unsigned bit = 0; bit < 8; ++bit)
+    if (uses & (1u << bit)) usage = usage | usage_of(TextureUse(bit));
+  return usage;
+}
+
+gpu::BufferUsage buffer_usage_of(std::uint16_t uses) {
+  auto usage = gpu::BufferUsage::None;
+  for (unsigned bit = 0; bit < 8; ++bit)
+    if (uses & (1u << bit)) usage = usage | usage_of(BufferUse(bit));
+  return usage;
+}
+
+struct Edge {
+  std::uint32_t to;
+  std::uint32_t resource;  // the resource that orders the two passes (named in cycle errors)
+};
+
+class Scheduler {
+ public:
+  Scheduler(const GraphData& g, CompiledState& s, std::vector<GraphError>& errors) : g_(g), s_(s), errors_(errors) {}
+
+  void run() {
+    init_resources();
+    scan_accesses();
+    cull();
+    order();
+    lifetimes();
+    check_usages();
+    check_attachments();
+  }
+
+ private:
+  const GraphData& g_;
+  CompiledState& s_;
+  std::vector<GraphError>& errors_;
+  std::vector<std::uint8_t> alive_;
+  std::vector<std::uint16_t> pass_texture_uses_, pass_buffer_uses_;
+  std::vector<std::uint16_t> resource_uses_;
+  bool backward_edge_ = false;
+
+  void error(GraphErrorKind kind, std::string message, std::vector<std::string> passes,
+             std::vector<std::string> resources) {
+    errors_.push_back(GraphError{kind, std::move(message), std::move(passes), std::move(resources)});
+  }
+
+  [[nodiscard]] std::string pass_name(std::uint32_t p) const { return std::string(g_.passes[p].name); }
+  [[nodiscard]] std::string resource_name(std::uint32_t r) const { return std::string(g_.resources[r].name); }
+
+  void init_resources() {
+    const std::uint32_t R = s_.resource_count;
+    s_.resources.resize(R);
+    s_.resource_final_state.assign(R, gpu::Access::Undefined);
+    resource_uses_.assign(R, 0);
+    const gpu::Extent3D output = s_.options.output_extent;
+    const bool have_output = output.width > 0 && output.height > 0;
+    for (std::uint32_t r = 0; r < R; ++r) {
+      const ResourceNode& node = g_.resources[r];
+      ResourceInfo& info = s_.resources[r];
+      info.name = node.name;
+      info.type = node.type;
+      info.imported = node.imported;
+      if (node.type == ResourceType::Texture) {
+        const TextureDesc& d = node.texture_desc;
+        if (d.size.is_relative && !have_output) {
+          error(GraphErrorKind::InvalidDescriptor,
+                weft::format("texture '{}' has a size relative to the output, but CompileOptions::output_extent is "
+                            "not set",
+                            node.name),
+                node.creator != invalid_index ? std::vector<std::string>{pass_name(node.creator)}
+                                              : std::vector<std::string>{},
+                {resource_name(r)});
+        }
+        info.extent = d.size.resolve(have_output ? output : gpu::Extent3D{1, 1, 1});
+        if (!d.size.is_relative) info.extent.depth_or_layers = std::max(1u, d.size.absolute.depth_or_layers);
+        info.format = d.format;
+        info.mip_level_count = d.mip_level_count;
+        info.dimension = d.dimension;
+        info.texture_usage = d.extra_usage;
+      } else {
+        info.buffer_size = node.buffer_desc.size;
+        info.buffer_usage = node.buffer_desc.extra_usage;
+      }
+    }
+  }
+
+  // Unwritten reads, usage and kind bookkeeping, and whether declaration order is already a
+  // valid order (then no edge list is built at all).
+  void scan_accesses() {
+    const std::uint32_t P = s_.pass_count;
+    pass_texture_uses_.assign(P, 0);
+    pass_buffer_uses_.assign(P, 0);
+    for (std::uint32_t p = 0; p < P; ++p) {
+      const PassNode& pass = g_.passes[p];
+      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+        const AccessNode& a = g_.accesses[i];
+        const VersionNode& v = g_.versions[a.slot];
+        const ResourceNode& res = g_.resources[a.resource];
+        resource_uses_[a.resource] |= a.uses;
+        (res.type == ResourceType::Texture ? pass_texture_uses_ : pass_buffer_uses_)[p] |= a.uses;
+        if (a.reads && v.producer == invalid_index && !(res.imported && v.version == 0)) {
+          error(GraphErrorKind::UnwrittenRead,
+                weft::format("pass '{}': reads {} (version {}), which no pass writes and nothing imports", pass.name,
+                            g_.describe(a.resource), v.version),
+                {pass_name(p)}, {resource_name(a.resource)});
+        }
+        if (v.producer != invalid_index && v.producer > p) backward_edge_ = true;
+        if (a.reads && v.next_writer != invalid_index && v.next_writer != p && v.next_writer < p)
+          backward_edge_ = true;
+      }
+    }
+    for (std::uint32_t p = 0; p < P; ++p) infer_kind(p);
+  }
+
+  void infer_kind(std::uint32_t p) {
+    const PassNode& pass = g_.passes[p];
+    const std::uint16_t tex = pass_texture_uses_[p], buf = pass_buffer_uses_[p];
+    PassKind inferred = PassKind::Compute;
+    if ((tex & attachment_uses) || (buf & draw_buffer_uses)) inferred = PassKind::Render;
+    else if ((tex | buf) != 0 && (tex & ~texture_copy_uses) == 0 && (buf & ~buffer_copy_uses) == 0)
+      inferred = PassKind::Transfer;
+    PassInfo& info = s_.passes[p];
+    info.name = pass.name;
+    info.kind_declared = pass.kind_declared;
+    info.side_effect = pass.side_effect;
+    info.kind = pass.kind_declared ? pass.declared_kind : inferred;
+    if (!pass.kind_declared || pass.declared_kind == PassKind::Render || pass.declared_kind == inferred) return;
+    // A declared compute or transfer pass must not use what only render passes can.
+    const bool render_only = (tex & attachment_uses) || (buf & draw_buffer_uses);
+    const bool non_copy = (tex & ~texture_copy_uses) || (buf & ~buffer_copy_uses);
+    if (!render_only && !(pass.declared_kind == PassKind::Transfer && non_copy)) return;
+    for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+      const AccessNode& a = g_.accesses[i];
+      const bool texture = g_.resources[a.resource].type == ResourceType::Texture;
+      const std::uint16_t bad = texture ? (pass.declared_kind == PassKind::Transfer ? a.uses & ~texture_copy_uses
+                                                                                    : a.uses & attachment_uses)
+                                        : (pass.declared_kind == PassKind::Transfer ? a.uses & ~buffer_copy_uses
+                                                                                    : a.uses & draw_buffer_uses);
+      if (!bad) continue;
+      unsigned bit = 0;
+      while (!(bad & (1u << bit))) ++bit;
+      error(GraphErrorKind::WrongPassKind,
+            weft::format("pass '{}' is declared {} but uses {} as {}", pass.name, to_string(pass.declared_kind),
+                        g_.describe(a.resource), texture ? to_string(TextureUse(bit)) : to_string(BufferUse(bit))),
+            {pass_name(p)}, {resource_name(a.resource)});
+      return;
+    }
+  }
+
+  // Keeps side-effect passes, passes writing imported resources (their results outlive the
+  // frame) and producers of outputs, then everything those need; the rest is culled.
+  void cull() {
+    const std::uint32_t P = s_.pass_count;
+    alive_.assign(P, 0);
+    std::vector<std::uint32_t> stack;
+    stack.reserve(P);
+    auto keep = [&](std::uint32_t p) {
+      if (p != invalid_index && p < P && !alive_[p]) {
+        alive_[p] = 1;
+        stack.push_back(p);
+      }
+    };
+    for (std::uint32_t p = 0; p < P; ++p) {
+      const PassNode& pass = g_.passes[p];
+      bool root = pass.side_effect;
+      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end && !root; ++i)
+        root = g_.accesses[i].writes() && g_.resources[g_.accesses[i].resource].imported;
+      if (root) keep(p);
+    }
+    for (const OutputNode& out : g_.outputs) {
+      if (out.resource >= s_.resource_count) continue;
+      const std::uint32_t slot = g_.find_slot(out.resource, out.version);
+      if (slot == invalid_index || g_.versions[slot].producer == invalid_index || g_.versions[slot].producer >= P) {
+        error(GraphErrorKind::OutputNeverWritten,
+              weft::format("output {} (version {}) is never written by any pass", g_.describe(out.resource),
+                          out.version),
+              {}, {resource_name(out.resource)});
+        continue;
+      }
+      keep(g_.versions[slot].producer);
+      s_.resource_final_state[out.resource] = out.final_state;
+    }
+    while (!stack.empty()) {
+      const std::uint32_t p = stack.back();
+      stack.pop_back();
+      const PassNode& pass = g_.passes[p];
+      // A write depends on the version it starts from too: the pass may load or blend.
+      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i)
+        keep(g_.versions[g_.accesses[i].slot].producer);
+    }
+  }
+
+  void order() {
+    const std::uint32_t P = s_.pass_count;
+    s_.order.clear();
+    s_.order.reserve(P);
+    if (!backward_edge_) {
+      for (std::uint32_t p = 0; p < P; ++p)
+        if (alive_[p]) s_.order.push_back(p);
+    } else {
+      ordered_by_edges();
+    }
+    for (std::uint32_t p = 0; p < P; ++p) s_.passes[p].culled = !alive_[p];
+    for (std::uint32_t i = 0; i < s_.order.size(); ++i) s_.passes[s_.order[i]].order_position = i;
+  }
+
+  // Kahn's algorithm over every pass (so cycles among culled passes are reported too), the
+  // lowest declaration index first among ready passes: a deterministic order.
+  void ordered_by_edges() {
+    const std::uint32_t P = s_.pass_count;
+    std::vector<std::uint32_t> begin(P + 1, 0);
+    auto for_each_edge = [&](auto&& emit) {
+      for (std::uint32_t p = 0; p < P; ++p) {
+        const PassNode& pass = g_.passes[p];
+        for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+          const AccessNode& a = g_.accesses[i];
+          const VersionNode& v = g_.versions[a.slot];
+          if (v.producer != invalid_index && v.producer != p) emit(v.producer, p, a.resource);
+          if (a.reads && v.next_writer != invalid_index && v.next_writer != p) emit(p, v.next_writer, a.resource);
+        }
+      }
+    };
+    for_each_edge([&](std::uint32_t from, std::uint32_t, std::uint32_t) { ++begin[from + 1]; });
+    for (std::uint32_t p = 0; p < P; ++p) begin[p + 1] += begin[p];
+    std::vector<Edge> edges(begin[P]);
+    std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
+    std::vector<std::uint32_t> indegree(P, 0);
+    for_each_edge([&](std::uint32_t from, std::uint32_t to, std::uint32_t resource) {
+      edges[fill[from]++] = Edge{to, resource};
+      ++indegree[to];
+    });
+
+    std::priority_queue<std::uint32_t, std::vector<std::uint32_t>, std::greater<>> ready;
+    for (std::uint32_t p = 0; p < P; ++p)
+      if (indegree[p] == 0) ready.push(p);
+    std::uint32_t placed = 0;
+    while (!ready.empty()) {
+      const std::uint32_t p = ready.top();
+      ready.pop();
+      ++placed;
+      if (alive_[p]) s_.order.push_back(p);
+      for (std::uint32_t e = begin[p]; e < begin[p + 1]; ++e)
+        if (--indegree[edges[e].to] == 0) ready.push(edges[e].to);
+    }
+    if (placed < P) report_cycles(begin, edges, indegree);
+  }
+
+  // One error per strongly connected component left over: the shortest cycle through its
+  // first-declared pass, naming every pass in order and the resources that link them.
+  void report_cycles(const std::vector<std::uint32_t>& begin, const std::vector<Edge>& edges,
+                     const std::vector<std::uint32_t>& indegree) {
+    const std::uint32_t P = s_.pass_count;
+    // Tarjan's SCC over the passes Kahn could not place (iterative).
+    std::vector<std::uint32_t> index(P, invalid_index), low(P, 0), component(P, invalid_index);
+    std::vector<std::uint8_t> on_stack(P, 0);
+    std::vector<std::uint32_t> stack;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> call;  // (node, next edge)
+    std::uint32_t counter = 0, components = 0;
+    auto remaining = [&](std::uint32_t p) { return indegree[p] > 0; };
+    for (std::uint32_t root = 0; root < P; ++root) {
+      if (!remaining(root) || index[root] != invalid_index) continue;
+      call.push_back({root, begin[root]});
+      index[root] = low[root] = counter++;
+      stack.push_back(root);
+      on_stack[root] = 1;
+      while (!call.empty()) {
+        auto& [v, e] = call.back();
+        if (e < begin[v + 1]) {
+          const std::uint32_t w = edges[e++].to;
+          if (!remaining(w)) continue;
+          if (index[w] == invalid_index) {
+            index[w] = low[w] = counter++;
+            stack.push_back(w);
+            on_stack[w] = 1;
+            call.push_back({w, begin[w]});
+          } else if (on_stack[w]) {
+            low[v] = std::min(low[v], index[w]);
+          }
+          continue;
+        }
+        const std::uint32_t done = v;
+        call.pop_back();
+        if (!call.empty()) low[call.back().first] = std::min(low[call.back().first], low[done]);
+        if (low[done] == index[done]) {
+          std::uint32_t w;
+          do {
+            w = stack.back();
+            stack.pop_back();
+            on_stack[w] = 0;
+            component[w] = components;
+          } while (w != done);
+          ++components;
+        }
+      }
+    }
+    std::vector<std::uint8_t> reported(components, 0);
+    std::vector<std::uint32_t> parent(P, invalid_index);
+    for (std::uint32_t start = 0; start < P; ++start) {
+      if (!remaining(start) || reported[component[start]]) continue;
+      const std::uint32_t c = component[start];
+      // Breadth-first from `start` inside its component until an edge returns to `start`.
+      std::vector<std::uint32_t> queue{start};
+      std::vector<std::uint32_t> touched{start};
+      parent[start] = start;
+      std::uint32_t last = invalid_index;
+      for (std::size_t head = 0; head < queue.size() && last == invalid_index; ++head) {
+        const std::uint32_t v = queue[head];
+        for (std::uint32_t e = begin[v]; e < begin[v + 1]; ++e) {
+          const std::uint32_t w = edges[e].to;
+          if (!remaining(w) || component[w] != c) continue;
+          if (w == start) {
+            last = v;
+            break;
+          }
+          if (parent[w] != invalid_index) continue;
+          parent[w] = v;
+          queue.push_back(w);
+          touched.push_back(w);
+        }
+      }
+      std::vector<std::uint32_t> cycle;
+      if (last != invalid_index) {
+        for (std::uint32_t v = last; v != start; v = parent[v]) cycle.push_back(v);
+        cycle.push_back(start);
+        std::reverse(cycle.begin(), cycle.end());
+      }
+      for (std::uint32_t t : touched) parent[t] = invalid_index;
+      if (cycle.size() < 2) continue;  // a single pass: not a cycle
+      reported[c] = 1;
+      emit_cycle(cycle, begin, edges);
+    }
+  }
+
+  void emit_cycle(const std::vector<std::uint32_t>& cycle, const std::vector<std::uint32_t>& begin,
+                  const std::vector<Edge>& edges) {
+    std::string message = "cycle: ";
+    std::vector<std::string> passes, resources;
+    for (std::uint32_t p : cycle) {
+      message += weft::format("'{}' -> ", g_.passes[p].name);
+      passes.push_back(pass_name(p));
+    }
+    message += weft::format("'{}' through ", g_.passes[cycle.front()].name);
+    for (std::size_t i = 0; i < cycle.size(); ++i) {
+      const std::uint32_t from = cycle[i], to = cycle[(i + 1) % cycle.size()];
+      for (std::uint32_t e = begin[from]; e < begin[from + 1]; ++e) {
+        if (edges[e].to != to) continue;
+        std::string name = resource_name(edges[e].resource);
+        if (std::find(resources.begin(), resources.end(), name) == resources.end()) resources.push_back(name);
+        break;
+      }
+    }
+    for (std::size_t i = 0; i < resources.size(); ++i) message += weft::format("{}'{}'", i ? ", " : "", resources[i]);
+    error(GraphErrorKind::Cycle, std::move(message), std::move(passes), std::move(resources));
+  }
+
+  void lifetimes() {
+    for (std::uint32_t pos = 0; pos < s_.order.size(); ++pos) {
+      const PassNode& pass = g_.passes[s_.order[pos]];
+      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+        const AccessNode& a = g_.accesses[i];
+        ResourceInfo& info = s_.resources[a.resource];
+        if (!info.used) {
+          info.used = true;
+          info.first_use = pos;
+        }
+        info.last_use = pos;
+      }
+    }
+    // Outputs are read after the frame: keep their memory to the end.
+    const auto last = std::uint32_t(s_.order.size()) - 1;
+    for (const OutputNode& out : g_.outputs)
+      if (out.resource < s_.resource_count && s_.resources[out.resource].used) s_.resources[out.resource].last_use = last;
+  }
+
+  void check_usages() {
+    for (std::uint32_t r = 0; r < s_.resource_count; ++r) {
+      const ResourceNode& node = g_.resources[r];
+      ResourceInfo& info = s_.resources[r];
+      const std::uint16_t uses = resource_uses_[r];
+      if (node.type == ResourceType::Texture) {
+        info.texture_usage = info.texture_usage | texture_usage_of(uses);
+        if (uses == 0) continue;
+        if (std::string forbidden = gpu::forbidden_usages(info.format, texture_usage_of(uses)); !forbidden.empty()) {
+          for (unsigned bit = 0; bit < 8; ++bit) {
+            if (!(uses & (1u << bit))) continue;
+            const auto use = TextureUse(bit);
+            std::string bad = gpu::forbidden_usages(info.format, usage_of(use));
+            if (bad.empty()) continue;
+            const auto users = passes_using(r, std::uint16_t(1u << bit));
+            error(GraphErrorKind::UnsupportedUsage,
+                  weft::format("pass '{}': uses texture '{}' ({}) as {}, which the format cannot take ({})",
+                              users.front(), node.name, gpu::to_string(info.format), to_string(use), bad),
+                  users, {resource_name(r)});
+          }
+        }
+        if (node.imported && node.imported_texture_usage != gpu::TextureUsage::None) {
+          for (unsigned bit = 0; bit < 8; ++bit) {
+            if (!(uses & (1u << bit))) continue;
+            const auto needed = usage_of(TextureUse(bit));
+            if ((std::uint32_t(needed) & ~std::uint32_t(node.imported_texture_usage)) == 0) continue;
+            const auto users = passes_using(r, std::uint16_t(1u << bit));
+            error(GraphErrorKind::MissingUsage,
+                  weft::format("pass '{}': uses imported texture '{}' as {}, but it was created without {} usage (it "
+                              "has {})",
+                              users.front(), node.name, to_string(TextureUse(bit)),
+                              gpu::to_string(gpu::TextureUsage(std::uint32_t(needed) &
+                                                               ~std::uint32_t(node.imported_texture_usage))),
+                              gpu::to_string(node.imported_texture_usage)),
+                  users, {resource_name(r)});
+          }
+        }
+      } else {
+        info.buffer_usage = info.buffer_usage | buffer_usage_of(uses);
+        if (uses == 0 || !node.imported || node.imported_buffer_usage == gpu::BufferUsage::None) continue;
+        for (unsigned bit = 0; bit < 8; ++bit) {
+          if (!(uses & (1u << bit))) continue;
+          const auto needed = usage_of(BufferUse(bit));
+          if ((std::uint32_t(needed) & ~std::uint32_t(node.imported_buffer_usage)) == 0) continue;
+          const auto users = passes_using(r, std::uint16_t(1u << bit));
+          error(GraphErrorKind::MissingUsage,
+                weft::format("pass '{}': uses imported buffer '{}' as {}, but it was created without {} usage (it has "
+                            "{})",
+                            users.front(), node.name, to_string(BufferUse(bit)), gpu::to_string(needed),
+                            gpu::to_string(node.imported_buffer_usage)),
+                users, {resource_name(r)});
+        }
+      }
+    }
+  }
+
+  // Runs only on the error path.
+  [[nodiscard]] std::vector<std::string> passes_using(std::uint32_t resource, std::uint16_t uses) const {
+    std::vector<std::string> out;
+    for (std::uint32_t p = 0; p < s_.pass_count; ++p) {
+      const PassNode& pass = g_.passes[p];
+      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i)
+        if (g_.accesses[i].resource == resource && (g_.accesses[i].uses & uses)) {
+          out.push_back(pass_name(p));
+          break;
+        }
+    }
+    if (out.empty()) out.push_back("?");
+    return out;
+  }
+
+  void check_attachments() {
+    for (std::uint32_t p = 0; p < s_.pass_count; ++p) {
+      if (!(pass_texture_uses_[p] & attachment_uses)) continue;
+      const PassNode& pass = g_.passes[p];
+      std::uint32_t first = invalid_index;
+      bool mismatch = false;
+      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+        const AccessNode& a = g_.accesses[i];
+        if (g_.resources[a.resource].type != ResourceType::Texture || !(a.uses & attachment_uses)) continue;
+        if (first == invalid_index) {
+          first = a.resource;
+          continue;
+        }
+        const gpu::Extent3D x = s_.resources[first].extent, y = s_.resources[a.resource].extent;
+        mismatch = mismatch || x.width != y.width || x.height != y.height;
+      }
+      if (!mismatch) continue;
+      std::string list;
+      std::vector<std::string> names;
+      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+        const AccessNode& a = g_.accesses[i];
+        if (g_.resources[a.resource].type != ResourceType::Texture || !(a.uses & attachment_uses)) continue;
+        list += weft::format("{}texture '{}' is {}", list.empty() ? "" : ", ", g_.resources[a.resource].name,
+                            format_extent(s_.resources[a.resource].extent));
+        names.push_back(resource_name(a.resource));
+      }
+      error(GraphErrorKind::MismatchedAttachmentSizes,
+            weft::format("pass '{}': attachments have different sizes: {}", pass.name, list), {pass_name(p)},
+            std::move(names));
+    }
+  }
+};
+
+}  // namespace
+
+void validate_and_schedule(const GraphData& graph, CompiledState& state, std::vector<GraphError>& errors) {
+  state.pass_count = std::uint32_t(graph.passes.size());
+  state.resource_count = std::uint32_t(graph.resources.size());
+  state.passes.resize(state.pass_count);
+  Scheduler(graph, state, errors).run();
+}
+
+
+}  // namespace weft::detail
+
+namespace weft {
+
+std::expected<CompiledGraph, GraphErrors> RenderGraph::compile(const CompileOptions& options) const {
+  auto state = std::make_unique<detail::CompiledState>();
+  state->graph = data_;
+  state->options = options;
+  GraphErrors errors{data_->name, data_->declaration_errors};
+  if (data_->current_pass != invalid_index)
+    errors.errors.push_back(GraphError{GraphErrorKind::InvalidDescriptor,
+                                       weft::format("compile() called inside the setup of pass '{}'",
+                                                   data_->current_pass_name()),
+                                       {std::string(data_->current_pass_name())}, {}});
+  detail::validate_and_schedule(*data_, *state, errors.errors);
+  if (errors.empty()) detail::plan_memory(*data_, *state, options.device, errors.errors);
+  if (errors.empty()) detail::plan_barriers(*data_, *state);
+  if (!errors.empty()) return std::unexpected(std::move(errors));
+  return CompiledGraph(std::move(state));
+}
+
+}  // namespace weft

@@ -1,0 +1,653 @@
+// weft.graph — the render graph. Passes declare the resources they create, read and write;
+// compile() validates the whole graph (reporting every error at once), culls what reaches no
+// output, orders passes, aliases transient memory and derives barriers; the compiled graph
+// records one command stream on a weft.gpu device with a debug label and timestamps per pass.
+// Declaration, validation, culling, ordering, aliasing and barrier planning need no device.
+module;
+#include <cstddef>
+#include <cstdint>
+#include <expected>
+#include <memory>
+#include <new>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <utility>
+#include <vector>
+export module weft.graph;
+import weft.core;
+import weft.gpu;
+
+namespace weft::detail {
+struct GraphData;
+struct CompiledState;
+struct Executor;
+}  // namespace weft::detail
+
+export namespace weft {
+
+inline constexpr std::uint32_t invalid_index = ~0u;
+
+// ---- handles ---------------------------------------------------------------------------
+// A resource index plus a version: every write returns the next version, so the order of a
+// read after a write is explicit in the handles. The tag keeps a texture handle from being
+// passed where a buffer is expected.
+template <class Tag>
+struct ResourceHandle {
+  std::uint32_t index = invalid_index;
+  std::uint32_t version = 0;
+  [[nodiscard]] constexpr bool valid() const { return index != invalid_index; }
+  constexpr explicit operator bool() const { return valid(); }
+  friend constexpr bool operator==(ResourceHandle, ResourceHandle) = default;
+};
+struct TextureTag {};
+struct BufferTag {};
+using TextureHandle = ResourceHandle<TextureTag>;
+using BufferHandle = ResourceHandle<BufferTag>;
+
+// ---- usages ----------------------------------------------------------------------------
+// How a pass uses a resource. Each use maps to the gpu::Access the barrier planner works
+// with and to the gpu usage flag a transient resource is created with.
+enum class TextureUse : std::uint8_t {
+  Sampled, StorageRead, StorageWrite, ColorAttachment, DepthAttachment, DepthRead, CopySrc, CopyDst,
+};
+enum class BufferUse : std::uint8_t { Vertex, Index, Uniform, StorageRead, StorageWrite, Indirect, CopySrc, CopyDst };
+
+std::string_view to_string(TextureUse use);
+std::string_view to_string(BufferUse use);
+gpu::Access access_of(TextureUse use);
+gpu::Access access_of(BufferUse use);
+gpu::TextureUsage usage_of(TextureUse use);
+gpu::BufferUsage usage_of(BufferUse use);
+constexpr bool is_write(TextureUse use) {
+  return use == TextureUse::StorageWrite || use == TextureUse::ColorAttachment ||
+         use == TextureUse::DepthAttachment || use == TextureUse::CopyDst;
+}
+constexpr bool is_write(BufferUse use) { return use == BufferUse::StorageWrite || use == BufferUse::CopyDst; }
+
+enum class PassKind : std::uint8_t { Render, Compute, Transfer };
+std::string_view to_string(PassKind kind);
+
+enum class ResourceType : std::uint8_t { Texture, Buffer };
+
+// ---- descriptors -----------------------------------------------------------------------
+// A size relative to CompileOptions::output_extent: RelativeSize{0.5f} is half the output.
+struct RelativeSize {
+  float width = 1.0f, height = 1.0f;
+  constexpr RelativeSize() = default;
+  constexpr RelativeSize(float scale) : width(scale), height(scale) {}  // NOLINT: implicit by design
+  constexpr RelativeSize(float w, float h) : width(w), height(h) {}
+};
+
+// Either an absolute extent or one relative to the graph's output.
+struct TextureSize {
+  gpu::Extent3D absolute{0, 0, 1};
+  RelativeSize relative{};
+  bool is_relative = true;
+  constexpr TextureSize() = default;
+  constexpr TextureSize(RelativeSize r) : relative(r), is_relative(true) {}      // NOLINT
+  constexpr TextureSize(gpu::Extent3D e) : absolute(e), is_relative(false) {}    // NOLINT
+  // The extent for an output of `output` (relative sizes round down, never below 1).
+  [[nodiscard]] gpu::Extent3D resolve(gpu::Extent3D output) const;
+};
+
+struct TextureDesc {
+  TextureSize size;
+  gpu::Format format = gpu::Format::RGBA8Unorm;
+  std::uint32_t mip_level_count = 1;
+  gpu::TextureDimension dimension = gpu::TextureDimension::D2;
+  // Usages beyond the declared ones (the declared uses add theirs automatically).
+  gpu::TextureUsage extra_usage = gpu::TextureUsage::None;
+};
+
+struct BufferDesc {
+  std::uint64_t size = 0;
+  gpu::BufferUsage extra_usage = gpu::BufferUsage::None;
+};
+
+// ---- errors ----------------------------------------------------------------------------
+enum class GraphErrorKind : std::uint8_t {
+  Cycle,                      // passes depend on each other in a loop
+  UnwrittenRead,              // a read of a version no pass writes and nothing imports
+  MultipleWriters,            // two passes write the same version of a resource
+  UnsupportedUsage,           // a usage the texture's format cannot take
+  MissingUsage,               // an imported resource was created without a usage a pass needs
+  MismatchedAttachmentSizes,  // attachments of one render pass differ in size
+  OutputNeverWritten,         // mark_output() of a version no pass writes
+  UndeclaredAccess,           // execute touched a resource its setup did not declare
+  InvalidHandle,              // a handle this graph never returned
+  ConflictingUsage,           // one pass uses one resource two incompatible ways
+  InvalidDescriptor,          // zero sizes, relative size without an output extent, ...
+  WrongPassKind,              // a declared pass kind that its uses contradict
+  Memory,                     // the device refused to size or place a transient resource
+};
+std::string_view to_string(GraphErrorKind kind);
+
+struct GraphError {
+  GraphErrorKind kind = GraphErrorKind::Cycle;
+  std::string message;
+  std::vector<std::string> passes;     // every pass involved, in the order the message names them
+  std::vector<std::string> resources;  // every resource involved
+};
+
+// Every problem compile() found, in a stable order (declaration errors first).
+struct GraphErrors {
+  std::string graph_name;
+  std::vector<GraphError> errors;
+
+  [[nodiscard]] bool empty() const { return errors.empty(); }
+  [[nodiscard]] std::size_t size() const { return errors.size(); }
+  [[nodiscard]] std::size_t count(GraphErrorKind kind) const;
+  [[nodiscard]] const GraphError* find(GraphErrorKind kind) const;
+  // "render graph 'frame': 2 errors:\n  - ...\n  - ..."
+  [[nodiscard]] std::string to_string() const;
+  [[nodiscard]] Error to_error() const { return Error{ErrorKind::Graph, to_string()}; }
+  operator Error() const { return to_error(); }  // NOLINT: lets Result<T> code `return std::unexpected(Error(errs))`
+};
+
+// ---- compile / execute options and results ----------------------------------------------
+struct CompileOptions {
+  // The extent relative sizes are measured against ({0,0} = unset: relative sizes are errors).
+  gpu::Extent3D output_extent{0, 0, 1};
+  // With a device, transient memory is sized by Device::memory_requirements; without one it
+  // is estimated (texels * bytes per texel over all mips, rounded up to 64 KiB), unless the
+  // functions below are given. Execute re-plans with its device's real requirements.
+  const gpu::Device* device = nullptr;
+  Result<gpu::MemoryRequirements> (*texture_requirements)(const gpu::TextureDescriptor&) = nullptr;
+  Result<gpu::MemoryRequirements> (*buffer_requirements)(const gpu::BufferDescriptor&) = nullptr;
+  bool aliasing = true;
+};
+
+struct ExecuteOptions {
+  bool timestamps = true;  // per-pass GPU times (when the adapter supports timestamps)
+};
+
+struct PassStats {
+  std::string name;
+  PassKind kind = PassKind::Compute;
+  double gpu_ms = -1.0;        // -1 when timestamps are off or unsupported
+  double cpu_record_us = 0.0;  // time spent in the pass's execute callback
+};
+
+struct FrameStats {
+  std::vector<PassStats> passes;  // in execution order
+  double gpu_total_ms = -1.0;
+  double cpu_record_total_us = 0.0;  // all execute callbacks plus barriers and labels
+  double cpu_frame_ms = 0.0;         // record + submit + wait
+  std::uint64_t transient_bytes = 0;           // device memory the aliased transients occupy
+  std::uint64_t transient_bytes_unaliased = 0; // what they would occupy without aliasing
+  // A markdown table: pass | kind | GPU ms | CPU record µs, with a total row.
+  [[nodiscard]] std::string format_table() const;
+};
+
+// ---- introspection of a compiled graph --------------------------------------------------
+struct PassInfo {
+  std::string_view name;
+  PassKind kind = PassKind::Compute;
+  bool kind_declared = false;
+  bool side_effect = false;
+  bool culled = false;
+  std::uint32_t order_position = invalid_index;  // position in order(); invalid when culled
+};
+
+struct ResourceInfo {
+  std::string_view name;
+  ResourceType type = ResourceType::Texture;
+  bool imported = false;
+  bool used = false;                          // some non-culled pass uses it
+  std::uint32_t first_use = invalid_index;    // order positions (inclusive)
+  std::uint32_t last_use = invalid_index;
+  // Textures: the resolved descriptor fields; buffers: size.
+  gpu::Extent3D extent{};
+  gpu::Format format = gpu::Format::Undefined;
+  std::uint32_t mip_level_count = 1;
+  gpu::TextureDimension dimension = gpu::TextureDimension::D2;
+  gpu::TextureUsage texture_usage = gpu::TextureUsage::None;  // derived from every declared use
+  std::uint64_t buffer_size = 0;
+  gpu::BufferUsage buffer_usage = gpu::BufferUsage::None;
+  // Transient memory placement (heap == invalid_index: imported or unused).
+  std::uint32_t heap = invalid_index;
+  std::uint64_t offset = 0;
+  std::uint64_t bytes = 0;
+  std::uint32_t alias_group = invalid_index;  // resources sharing memory share a group
+};
+
+// A barrier the graph records before a pass (or at the end of the frame for outputs).
+// previous_occupant is set when `resource` takes over memory another transient used earlier
+// in the frame: the barrier then also waits for that occupant's last access.
+struct PlannedBarrier {
+  std::uint32_t resource = invalid_index;
+  gpu::Access before = gpu::Access::Undefined;
+  gpu::Access after = gpu::Access::Undefined;
+  std::uint32_t previous_occupant = invalid_index;
+  gpu::Access occupant_before = gpu::Access::Undefined;
+};
+
+struct MemoryHeap {
+  ResourceType type = ResourceType::Texture;  // textures and buffers never share a heap
+  std::uint32_t type_bits = ~0u;
+  std::uint64_t size = 0;
+};
+
+struct MemoryPlan {
+  std::vector<MemoryHeap> heaps;
+  std::uint64_t aliased_bytes = 0;    // sum of heap sizes
+  std::uint64_t unaliased_bytes = 0;  // sum of transient sizes, as if each had its own memory
+  bool from_device = false;           // sized by Device::memory_requirements, not estimated
+};
+
+class RenderGraph;
+class PassBuilder;
+class PassResources;
+class PassContext;
+class CompiledGraph;
+
+}  // namespace weft
+
+// ---- internals the templates below need (not exported) ---------------------------------
+namespace weft::detail {
+
+// The execute callback and the pass data, type-erased once per pass and stored in the
+// graph's arena.
+struct ErasedExecute {
+  void* data = nullptr;
+  void* callable = nullptr;
+  void (*invoke)(void* callable, const void* data, const PassResources&, PassContext&) = nullptr;
+  void (*destroy)(void* callable, void* data) = nullptr;
+};
+
+void* arena_allocate(GraphData& graph, std::size_t size, std::size_t alignment);
+PassBuilder begin_pass(GraphData& graph, std::string_view name, const ErasedExecute& execute);
+void end_pass(GraphData& graph, std::uint32_t pass);
+std::uint32_t builder_pass(const PassBuilder& builder);
+
+template <class Data, class Fn>
+void invoke_execute(void* callable, const void* data, const PassResources& resources, PassContext& context) {
+  (*static_cast<Fn*>(callable))(resources, *static_cast<const Data*>(data), context);
+}
+template <class Data, class Fn>
+void destroy_pass(void* callable, void* data) {
+  static_cast<Fn*>(callable)->~Fn();
+  static_cast<Data*>(data)->~Data();
+}
+
+}  // namespace weft::detail
+
+export namespace weft {
+
+// ---- blackboard ------------------------------------------------------------------------
+// Well-known handles passed between features by name ("scene_depth", "shadow_map"), so a
+// feature finds another's output without importing it. put() replaces an existing key.
+class Blackboard {
+ public:
+  void put(std::string_view key, TextureHandle handle);
+  void put(std::string_view key, BufferHandle handle);
+  // The handle under `key`, or an error naming the key and the pass that asked.
+  template <class Handle>
+  [[nodiscard]] Result<Handle> get(std::string_view key) const {
+    if constexpr (std::is_same_v<Handle, TextureHandle>) {
+      auto found = find_entry(key, ResourceType::Texture);
+      if (!found) return std::unexpected(missing(key, ResourceType::Texture));
+      return TextureHandle{found->first, found->second};
+    } else {
+      static_assert(std::is_same_v<Handle, BufferHandle>, "get<TextureHandle> or get<BufferHandle>");
+      auto found = find_entry(key, ResourceType::Buffer);
+      if (!found) return std::unexpected(missing(key, ResourceType::Buffer));
+      return BufferHandle{found->first, found->second};
+    }
+  }
+  template <class Handle>
+  [[nodiscard]] std::optional<Handle> find(std::string_view key) const {
+    auto handle = get<Handle>(key);
+    return handle ? std::optional<Handle>(*handle) : std::nullopt;
+  }
+  [[nodiscard]] bool contains(std::string_view key) const;
+  [[nodiscard]] std::vector<std::string> keys() const;
+
+ private:
+  struct Entry {
+    std::string key;
+    ResourceType type;
+    std::uint32_t index, version;
+  };
+  void put_entry(std::string_view key, ResourceType type, std::uint32_t index, std::uint32_t version);
+  [[nodiscard]] std::optional<std::pair<std::uint32_t, std::uint32_t>> find_entry(std::string_view key,
+                                                                                  ResourceType type) const;
+  [[nodiscard]] Error missing(std::string_view key, ResourceType type) const;
+  const detail::GraphData* graph_ = nullptr;  // to name the pass that is asking
+  std::vector<Entry> entries_;
+  friend struct detail::GraphData;
+};
+
+// ---- setup -----------------------------------------------------------------------------
+// Handed to a pass's setup callback: everything the pass will touch is declared here.
+class PassBuilder {
+ public:
+  // A transient texture/buffer owned by the graph; its gpu usage flags are derived from every
+  // use declared on it, and its memory may be shared with transients that are not alive at
+  // the same time. Its version 0 has no contents: write it before reading it.
+  TextureHandle create_texture(std::string_view name, const TextureDesc& desc);
+  BufferHandle create_buffer(std::string_view name, const BufferDesc& desc);
+
+  // Reads return the handle they were given; writes return the next version, which later
+  // passes must use to see this pass's results.
+  TextureHandle read(TextureHandle handle, TextureUse use);
+  BufferHandle read(BufferHandle handle, BufferUse use);
+  [[nodiscard]] TextureHandle write(TextureHandle handle, TextureUse use);
+  [[nodiscard]] BufferHandle write(BufferHandle handle, BufferUse use);
+
+  // Keeps the pass even when nothing it writes reaches an output (e.g. it uploads uniforms
+  // or writes a readback buffer the graph does not know about).
+  void side_effect();
+  // Declares the pass kind; without it the kind is inferred (attachments or vertex/index
+  // buffers: render; only copies: transfer; otherwise compute).
+  void kind(PassKind kind);
+
+  [[nodiscard]] Blackboard& blackboard();
+  [[nodiscard]] std::string_view pass_name() const;
+
+ private:
+  PassBuilder(detail::GraphData* graph, std::uint32_t pass) : graph_(graph), pass_(pass) {}
+  detail::GraphData* graph_;
+  std::uint32_t pass_;
+  friend PassBuilder detail::begin_pass(detail::GraphData&, std::string_view, const detail::ErasedExecute&);
+  friend std::uint32_t detail::builder_pass(const PassBuilder&);
+};
+
+// ---- execute ---------------------------------------------------------------------------
+// What a pass's execute callback may touch: only the resources its setup declared. Asking
+// for anything else records an UndeclaredAccess error that execute() returns.
+class PassResources {
+ public:
+  [[nodiscard]] const gpu::Texture& texture(TextureHandle handle) const;
+  [[nodiscard]] const gpu::TextureView& view(TextureHandle handle) const;
+  [[nodiscard]] const gpu::Buffer& buffer(BufferHandle handle) const;
+  [[nodiscard]] gpu::Extent3D extent(TextureHandle handle) const;
+
+ private:
+  PassResources(detail::Executor* executor, std::uint32_t pass) : executor_(executor), pass_(pass) {}
+  detail::Executor* executor_;
+  std::uint32_t pass_;
+  friend struct detail::Executor;
+};
+
+class PassContext {
+ public:
+  [[nodiscard]] gpu::CommandEncoder& encoder() const { return *encoder_; }
+  [[nodiscard]] gpu::Device& device() const { return *device_; }
+  [[nodiscard]] std::string_view pass_name() const { return pass_name_; }
+  [[nodiscard]] std::uint64_t frame_index() const { return frame_index_; }
+
+ private:
+  PassContext() = default;
+  gpu::CommandEncoder* encoder_ = nullptr;
+  gpu::Device* device_ = nullptr;
+  std::string_view pass_name_;
+  std::uint64_t frame_index_ = 0;
+  friend struct detail::Executor;
+};
+
+}  // namespace weft
+
+export namespace weft {
+
+// ---- the graph -------------------------------------------------------------------------
+class RenderGraph {
+ public:
+  explicit RenderGraph(std::string_view name = "frame");
+  RenderGraph(RenderGraph&&) noexcept;
+  RenderGraph& operator=(RenderGraph&&) noexcept;
+  ~RenderGraph();
+
+  // Adds a pass: setup(PassBuilder&, Data&) runs now and fills Data with handles;
+  // execute(const PassResources&, const Data&, PassContext&) runs at every execute() unless
+  // the pass is culled. The returned Data stays valid for the graph's lifetime.
+  template <class Data, class Setup, class Execute>
+  Data& add_pass(std::string_view name, Setup&& setup, Execute&& execute) {
+    static_assert(std::is_invocable_v<Setup&, PassBuilder&, Data&>,
+                  "setup must be callable as setup(PassBuilder&, Data&)");
+    static_assert(std::is_invocable_v<std::decay_t<Execute>&, const PassResources&, const Data&, PassContext&>,
+                  "execute must be callable as execute(const PassResources&, const Data&, PassContext&)");
+    using Fn = std::decay_t<Execute>;
+    auto* data = new (detail::arena_allocate(*data_, sizeof(Data), alignof(Data))) Data{};
+    auto* callable = new (detail::arena_allocate(*data_, sizeof(Fn), alignof(Fn))) Fn(std::forward<Execute>(execute));
+    detail::ErasedExecute erased{data, callable, &detail::invoke_execute<Data, Fn>, nullptr};
+    if constexpr (!std::is_trivially_destructible_v<Data> || !std::is_trivially_destructible_v<Fn>)
+      erased.destroy = &detail::destroy_pass<Data, Fn>;
+    PassBuilder builder = detail::begin_pass(*data_, name, erased);
+    setup(builder, *data);
+    detail::end_pass(*data_, detail::builder_pass(builder));
+    return *data;
+  }
+
+  // A pass that only declares (no execute callback): graph tests and placeholders.
+  template <class Setup>
+  void add_pass(std::string_view name, Setup&& setup) {
+    static_assert(std::is_invocable_v<Setup&, PassBuilder&>, "setup must be callable as setup(PassBuilder&)");
+    PassBuilder builder = detail::begin_pass(*data_, name, detail::ErasedExecute{});
+    setup(builder);
+    detail::end_pass(*data_, detail::builder_pass(builder));
+  }
+
+  // Persistent resources owned by the caller (LUTs, baked data, the frame output, last
+  // frame's history). `initial_state` is the state the resource is in when the frame
+  // starts. The descriptor-only forms need no device (graph tests); execute() then fails if
+  // a pass that is not culled uses them.
+  TextureHandle import_texture(std::string_view name, const gpu::Texture* texture, gpu::Access initial_state);
+  TextureHandle import_texture(std::string_view name, const gpu::TextureDescriptor& desc, gpu::Access initial_state);
+  BufferHandle import_buffer(std::string_view name, const gpu::Buffer* buffer, gpu::Access initial_state);
+  BufferHandle import_buffer(std::string_view name, const gpu::BufferDescriptor& desc, gpu::Access initial_state);
+
+  // What the frame produces: passes that contribute to an output are kept, the rest culled.
+  // `final_state` (if not Undefined) is the state the resource is left in, e.g. CopySrc for
+  // a readback.
+  void mark_output(TextureHandle handle, gpu::Access final_state = gpu::Access::Undefined);
+  void mark_output(BufferHandle handle, gpu::Access final_state = gpu::Access::Undefined);
+
+  [[nodiscard]] Blackboard& blackboard();
+  [[nodiscard]] const std::string& name() const;
+  [[nodiscard]] std::size_t pass_count() const;
+  [[nodiscard]] std::size_t resource_count() const;
+  [[nodiscard]] std::string_view resource_name(std::uint32_t index) const;
+
+  // Validates, culls, orders, plans memory and barriers. The compiled graph keeps what it
+  // needs of this graph alive; passes added later are not part of it.
+  [[nodiscard]] std::expected<CompiledGraph, GraphErrors> compile(const CompileOptions& options = {}) const;
+
+ private:
+  std::shared_ptr<detail::GraphData> data_;
+};
+
+// ---- the compiled graph ----------------------------------------------------------------
+class CompiledGraph {
+ public:
+  CompiledGraph(CompiledGraph&&) noexcept;
+  CompiledGraph& operator=(CompiledGraph&&) noexcept;
+  ~CompiledGraph();
+
+  // Records every pass into one command encoder (debug group + timestamps per pass), submits
+  // and waits. Transient resources are created on the first call (or when the device
+  // changes) in memory blocks at the aliasing offsets and reused by later calls.
+  Result<FrameStats> execute(gpu::Device& device, const ExecuteOptions& options = {});
+
+  [[nodiscard]] std::string_view name() const;
+  [[nodiscard]] std::span<const std::uint32_t> order() const;  // pass indices, execution order
+  [[nodiscard]] std::span<const PassInfo> passes() const;       // by declaration index
+  [[nodiscard]] std::span<const ResourceInfo> resources() const;
+  [[nodiscard]] std::optional<std::uint32_t> find_pass(std::string_view name) const;
+  [[nodiscard]] std::optional<std::uint32_t> find_resource(std::string_view name) const;
+  [[nodiscard]] bool culled(std::string_view pass_name) const;  // true also for unknown names
+  [[nodiscard]] std::span<const PlannedBarrier> barriers_before(std::uint32_t pass) const;
+  [[nodiscard]] std::span<const PlannedBarrier> final_barriers() const;
+  [[nodiscard]] const MemoryPlan& memory() const;
+
+  // The gpu object behind a handle after execute() (transient or imported), or null.
+  [[nodiscard]] const gpu::Texture* texture(TextureHandle handle) const;
+  [[nodiscard]] const gpu::Buffer* buffer(BufferHandle handle) const;
+
+  // Graphviz: passes as boxes (culled ones grey, dashed), resources as ellipses coloured by
+  // aliasing group, edges labelled with the use.
+  [[nodiscard]] std::string to_dot() const;
+  // Order, lifetimes, memory placement and barriers as text.
+  [[nodiscard]] std::string dump() const;
+
+ private:
+  explicit CompiledGraph(std::unique_ptr<detail::CompiledState> state);
+  std::unique_ptr<detail::CompiledState> state_;
+  friend class RenderGraph;
+};
+
+}  // namespace weft
+
+// ---- internals shared by the implementation units (not exported) ------------------------
+namespace weft::detail {
+
+// Bump allocator for pass data, execute callables and names: one allocation per 16 KiB
+// instead of several per pass, and stable addresses (add_pass returns Data&).
+class Arena {
+ public:
+  Arena() = default;
+  Arena(const Arena&) = delete;
+  Arena& operator=(const Arena&) = delete;
+  void* allocate(std::size_t size, std::size_t alignment);
+  std::string_view copy(std::string_view text);
+
+ private:
+  std::vector<std::unique_ptr<std::byte[]>> blocks_;
+  std::byte* cursor_ = nullptr;
+  std::size_t left_ = 0;
+};
+
+// Use bits: one bit per TextureUse/BufferUse value, kept per access.
+constexpr std::uint16_t use_bit(TextureUse use) { return std::uint16_t(1u << unsigned(use)); }
+constexpr std::uint16_t use_bit(BufferUse use) { return std::uint16_t(1u << unsigned(use)); }
+
+struct PassNode {
+  std::string_view name;
+  std::uint32_t first_access = 0;
+  std::uint32_t access_count = 0;
+  PassKind declared_kind = PassKind::Compute;
+  bool kind_declared = false;
+  bool side_effect = false;
+  ErasedExecute execute;
+};
+
+struct ResourceNode {
+  std::string_view name;
+  ResourceType type = ResourceType::Texture;
+  bool imported = false;
+  std::uint32_t creator = invalid_index;  // the pass that created a transient
+  std::uint32_t latest_slot = invalid_index;
+  // Textures.
+  TextureDesc texture_desc;
+  const gpu::Texture* texture = nullptr;   // imported gpu object, if any
+  gpu::TextureUsage imported_texture_usage = gpu::TextureUsage::None;  // None = unknown
+  // Buffers.
+  BufferDesc buffer_desc;
+  const gpu::Buffer* buffer = nullptr;
+  gpu::BufferUsage imported_buffer_usage = gpu::BufferUsage::None;
+  gpu::Access initial_state = gpu::Access::Undefined;
+};
+
+// One version of one resource; versions of a resource link backwards through `previous`.
+struct VersionNode {
+  std::uint32_t resource = invalid_index;
+  std::uint32_t version = 0;
+  std::uint32_t producer = invalid_index;     // the pass whose write created it
+  std::uint32_t next_writer = invalid_index;  // the pass that writes it into the next version
+  std::uint32_t previous = invalid_index;
+};
+
+// One pass's use of one resource (several declarations of the same resource by one pass
+// are merged into one access, so each pass has one state per resource).
+struct AccessNode {
+  std::uint32_t resource = invalid_index;
+  std::uint32_t slot = invalid_index;      // the version read, or the version a write starts from
+  std::uint32_t out_slot = invalid_index;  // the version a write produces
+  gpu::Access access = gpu::Access::Undefined;
+  std::uint16_t uses = 0;  // use bits
+  bool reads = false;
+  [[nodiscard]] bool writes() const { return out_slot != invalid_index; }
+};
+
+struct OutputNode {
+  std::uint32_t resource = invalid_index;
+  std::uint32_t version = 0;
+  gpu::Access final_state = gpu::Access::Undefined;
+};
+
+struct GraphData {
+  explicit GraphData(std::string_view graph_name);
+  GraphData(const GraphData&) = delete;
+  GraphData& operator=(const GraphData&) = delete;
+  ~GraphData();
+
+  std::string name;
+  Arena arena;
+  std::vector<PassNode> passes;
+  std::vector<ResourceNode> resources;
+  std::vector<VersionNode> versions;
+  std::vector<AccessNode> accesses;
+  std::vector<OutputNode> outputs;
+  std::vector<GraphError> declaration_errors;
+  Blackboard blackboard;
+  std::uint32_t current_pass = invalid_index;  // the pass whose setup is running
+
+  [[nodiscard]] std::string describe(std::uint32_t resource) const;  // "texture 'x'"
+  [[nodiscard]] std::string_view current_pass_name() const {
+    return current_pass == invalid_index ? std::string_view{} : passes[current_pass].name;
+  }
+  // The version slot a handle names, or invalid_index for a handle this graph never returned.
+  [[nodiscard]] std::uint32_t find_slot(std::uint32_t resource, std::uint32_t version) const;
+};
+
+struct Realized;  // gpu objects of an executed graph (execute.cpp)
+
+struct CompiledState {
+  CompiledState();
+  CompiledState(const CompiledState&) = delete;
+  CompiledState& operator=(const CompiledState&) = delete;
+  ~CompiledState();
+
+  std::shared_ptr<GraphData> graph;
+  CompileOptions options;
+  std::uint32_t pass_count = 0, resource_count = 0;  // what this snapshot covers
+
+  std::vector<PassInfo> passes;
+  std::vector<std::uint32_t> order;
+  std::vector<ResourceInfo> resources;
+  std::vector<gpu::Access> resource_final_state;  // Undefined: leave as last used
+
+  // Memory: per resource, the transients whose memory it takes over (flattened).
+  std::vector<std::uint32_t> takeover_begin;  // resource_count + 1 entries
+  std::vector<std::uint32_t> takeovers;
+  MemoryPlan memory;
+
+  // Barriers: those before order position i are barriers[barrier_begin[i] .. barrier_begin[i+1]);
+  // the last range (i == order.size()) is the end of the frame.
+  std::vector<PlannedBarrier> barriers;
+  std::vector<std::uint32_t> barrier_begin;
+
+  std::unique_ptr<Realized> realized;
+  std::uint64_t frame_index = 0;
+};
+
+// The state a texture is left in once another resource took over (part of) its memory: the
+// release barrier moves it to GENERAL (StorageRead), a layout every image may take, so that
+// later takeovers of the rest of its memory wait on that barrier without another transition.
+inline constexpr gpu::Access released_state = gpu::Access::StorageRead;
+
+// Compile stages (one file each), run in this order by RenderGraph::compile.
+void validate_and_schedule(const GraphData& graph, CompiledState& state, std::vector<GraphError>& errors);
+void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device* device,
+                 std::vector<GraphError>& errors);
+void plan_barriers(const GraphData& graph, CompiledState& state);
+
+// Estimated memory requirements when no device is at hand.
+gpu::MemoryRequirements estimate_requirements(const ResourceInfo& resource);
+
+std::string format_extent(gpu::Extent3D extent);
+
+}  // namespace weft::detail

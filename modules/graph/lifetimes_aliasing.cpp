@@ -1,0 +1,242 @@
+// compile(), part 2: transient memory. Transients whose lifetimes (first..last use in the
+// execution order) do not overlap share memory. A sweep over the order places each resource
+// at its first use into the best-fitting free run of its heap (or grows the heap) and frees
+// it after its last use. Each heap remembers, per byte range, its latest occupant, so the
+// barrier planner knows whose last access a resource must wait for when it takes over memory.
+module;
+#include <algorithm>
+#include <cstdint>
+#include <numeric>
+#include <string>
+#include <vector>
+module weft.graph;
+import weft.core;
+import weft.gpu;
+
+namespace weft::detail {
+
+namespace {
+
+constexpr std::uint64_t estimate_texture_alignment = 64 * 1024;
+constexpr std::uint64_t estimate_buffer_alignment = 256;
+
+constexpr std::uint64_t align_up(std::uint64_t value, std::uint64_t alignment) {
+  return alignment <= 1 ? value : (value + alignment - 1) / alignment * alignment;
+}
+
+gpu::TextureDescriptor texture_descriptor(const ResourceInfo& r) {
+  return gpu::TextureDescriptor{std::string(r.name), r.extent, r.format, r.texture_usage, r.mip_level_count,
+                                r.dimension};
+}
+
+// A heap's address space as consecutive segments covering [0, size): who used each range
+// last, and whether that resource is still alive.
+struct Segment {
+  std::uint64_t begin, end;
+  std::uint32_t occupant;  // invalid_index: never used
+  bool live;
+};
+
+struct HeapBuilder {
+  ResourceType type;
+  std::uint32_t type_bits;
+  std::uint64_t size = 0;
+  std::vector<Segment> segments;
+
+  // Best fit among the free runs (consecutive segments whose occupants are dead), else the
+  // end of the heap, growing it.
+  std::uint64_t place(std::uint64_t bytes, std::uint64_t alignment) {
+    constexpr std::uint64_t none = ~0ull;
+    std::uint64_t best = none, best_waste = none;
+    std::uint64_t trailing_begin = size;  // where the free run that ends the heap starts
+    std::size_t i = 0;
+    while (i < segments.size()) {
+      if (segments[i].live) {
+        ++i;
+        continue;
+      }
+      const std::uint64_t run_begin = segments[i].begin;
+      while (i < segments.size() && !segments[i].live) ++i;
+      const std::uint64_t run_end = segments[i - 1].end;
+      if (i == segments.size()) trailing_begin = run_begin;
+      const std::uint64_t at = align_up(run_begin, alignment);
+      if (at + bytes <= run_end && run_end - run_begin < best_waste) {
+        best = at;
+        best_waste = run_end - run_begin;
+      }
+    }
+    if (best == none) best = align_up(trailing_begin, alignment);
+    if (best + bytes > size) {
+      if (segments.empty() || segments.back().live)
+        segments.push_back(Segment{size, best + bytes, invalid_index, false});
+      else
+        segments.back().end = best + bytes;
+      size = best + bytes;
+    }
+    return best;
+  }
+
+  // Marks [offset, offset + bytes) as `resource`'s and appends the previous occupants.
+  void occupy(std::uint64_t offset, std::uint64_t bytes, std::uint32_t resource, std::vector<std::uint32_t>& previous) {
+    const std::uint64_t end = offset + bytes;
+    auto first = std::partition_point(segments.begin(), segments.end(), [&](const Segment& s) { return s.end <= offset; });
+    auto last = first;
+    for (; last != segments.end() && last->begin < end; ++last)
+      if (last->occupant != invalid_index &&
+          std::find(previous.begin(), previous.end(), last->occupant) == previous.end())
+        previous.push_back(last->occupant);
+    Segment replacement[3];
+    std::size_t n = 0;
+    if (first != last && first->begin < offset) replacement[n++] = Segment{first->begin, offset, first->occupant, first->live};
+    replacement[n++] = Segment{offset, end, resource, true};
+    if (first != last && (last - 1)->end > end)
+      replacement[n++] = Segment{end, (last - 1)->end, (last - 1)->occupant, (last - 1)->live};
+    const auto at = first - segments.begin();
+    segments.erase(first, last);
+    segments.insert(segments.begin() + at, replacement, replacement + n);
+  }
+
+  void release(std::uint64_t offset) {
+    auto it = std::partition_point(segments.begin(), segments.end(), [&](const Segment& s) { return s.end <= offset; });
+    if (it != segments.end()) it->live = false;
+  }
+};
+
+std::uint32_t find_root(std::vector<std::uint32_t>& parent, std::uint32_t x) {
+  while (parent[x] != x) x = parent[x] = parent[parent[x]];
+  return x;
+}
+
+}  // namespace
+
+gpu::MemoryRequirements estimate_requirements(const ResourceInfo& r) {
+  if (r.type == ResourceType::Buffer)
+    return {align_up(std::max<std::uint64_t>(r.buffer_size, 1), estimate_buffer_alignment), estimate_buffer_alignment,
+            ~0u};
+  const std::uint64_t texel = std::max<std::uint32_t>(gpu::format_info(r.format).bytes_per_texel, 1);
+  std::uint64_t bytes = 0;
+  std::uint64_t w = r.extent.width, h = r.extent.height;
+  const std::uint64_t layers = std::max(1u, r.extent.depth_or_layers) * (r.dimension == gpu::TextureDimension::Cube ? 6 : 1);
+  for (std::uint32_t m = 0; m < std::max(1u, r.mip_level_count); ++m) {
+    bytes += w * h * layers * texel;
+    w = std::max<std::uint64_t>(1, w / 2);
+    h = std::max<std::uint64_t>(1, h / 2);
+  }
+  return {align_up(bytes, estimate_texture_alignment), estimate_texture_alignment, ~0u};
+}
+
+void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device* device,
+                 std::vector<GraphError>& errors) {
+  const std::uint32_t R = state.resource_count;
+  const auto positions = std::uint32_t(state.order.size());
+  MemoryPlan plan;
+  plan.from_device = device != nullptr;
+
+  // Requirements, and the transients bucketed by first and last use (linked lists, no sort).
+  std::vector<gpu::MemoryRequirements> requirements(R);
+  std::vector<std::uint32_t> start_head(positions, invalid_index), end_head(positions, invalid_index);
+  std::vector<std::uint32_t> start_next(R, invalid_index), end_next(R, invalid_index);
+  for (std::uint32_t r = R; r-- > 0;) {
+    ResourceInfo& info = state.resources[r];
+    info.heap = invalid_index;
+    info.offset = 0;
+    info.bytes = 0;
+    info.alias_group = invalid_index;
+    if (info.imported || !info.used) continue;
+    Result<gpu::MemoryRequirements> req = estimate_requirements(info);
+    if (device != nullptr) {
+      req = info.type == ResourceType::Texture
+                ? device->memory_requirements(texture_descriptor(info))
+                : device->memory_requirements(gpu::BufferDescriptor{std::string(info.name), info.buffer_size,
+                                                                    info.buffer_usage});
+    } else if (info.type == ResourceType::Texture && state.options.texture_requirements) {
+      req = state.options.texture_requirements(texture_descriptor(info));
+    } else if (info.type == ResourceType::Buffer && state.options.buffer_requirements) {
+      req = state.options.buffer_requirements(
+          gpu::BufferDescriptor{std::string(info.name), info.buffer_size, info.buffer_usage});
+    }
+    if (!req) {
+      errors.push_back(GraphError{GraphErrorKind::Memory,
+                                  weft::format("{}: cannot size its memory: {}", graph.describe(r), req.error().message),
+                                  {}, {std::string(info.name)}});
+      continue;
+    }
+    requirements[r] = *req;
+    info.bytes = req->size;
+    plan.unaliased_bytes += req->size;
+    start_next[r] = start_head[info.first_use];
+    start_head[info.first_use] = r;
+    end_next[r] = end_head[info.last_use];
+    end_head[info.last_use] = r;
+  }
+
+  std::vector<HeapBuilder> heaps;
+  std::vector<std::uint32_t> previous;
+  state.takeover_begin.assign(R + 1, 0);
+  std::vector<std::uint32_t> takeover_first(R, 0), takeover_count(R, 0);
+  std::vector<std::uint32_t> flat;
+  for (std::uint32_t pos = 0; pos < positions; ++pos) {
+    for (std::uint32_t r = start_head[pos]; r != invalid_index; r = start_next[r]) {
+      ResourceInfo& info = state.resources[r];
+      const gpu::MemoryRequirements& req = requirements[r];
+      std::uint32_t heap = 0;
+      while (heap < heaps.size() && !(heaps[heap].type == info.type && (heaps[heap].type_bits & req.type_bits) != 0))
+        ++heap;
+      if (heap == heaps.size()) heaps.push_back(HeapBuilder{info.type, req.type_bits});
+      HeapBuilder& h = heaps[heap];
+      h.type_bits &= req.type_bits;
+      const std::uint64_t offset = h.place(req.size, std::max<std::uint64_t>(req.alignment, 1));
+      previous.clear();
+      h.occupy(offset, req.size, r, previous);
+      info.heap = heap;
+      info.offset = offset;
+      takeover_first[r] = std::uint32_t(flat.size());
+      takeover_count[r] = std::uint32_t(previous.size());
+      flat.insert(flat.end(), previous.begin(), previous.end());
+    }
+    if (!state.options.aliasing) continue;
+    for (std::uint32_t r = end_head[pos]; r != invalid_index; r = end_next[r])
+      if (state.resources[r].heap != invalid_index) heaps[state.resources[r].heap].release(state.resources[r].offset);
+  }
+
+  // Takeovers grouped by resource index (the barrier planner walks them per resource).
+  state.takeovers.clear();
+  state.takeovers.reserve(flat.size());
+  for (std::uint32_t r = 0; r < R; ++r) {
+    state.takeover_begin[r] = std::uint32_t(state.takeovers.size());
+    state.takeovers.insert(state.takeovers.end(), flat.begin() + takeover_first[r],
+                           flat.begin() + takeover_first[r] + takeover_count[r]);
+  }
+  state.takeover_begin[R] = std::uint32_t(state.takeovers.size());
+
+  // Aliasing groups: resources connected by takeovers, numbered by their lowest index.
+  if (!state.takeovers.empty()) {
+    std::vector<std::uint32_t> parent(R);
+    std::iota(parent.begin(), parent.end(), 0u);
+    for (std::uint32_t r = 0; r < R; ++r)
+      for (std::uint32_t i = state.takeover_begin[r]; i < state.takeover_begin[r + 1]; ++i) {
+        const std::uint32_t a = find_root(parent, r), b = find_root(parent, state.takeovers[i]);
+        parent[std::max(a, b)] = std::min(a, b);
+      }
+    std::vector<std::uint32_t> group_of_root(R, invalid_index);
+    std::vector<std::uint32_t> members(R, 0);
+    for (std::uint32_t r = 0; r < R; ++r)
+      if (state.resources[r].heap != invalid_index) ++members[find_root(parent, r)];
+    std::uint32_t groups = 0;
+    for (std::uint32_t r = 0; r < R; ++r) {
+      if (state.resources[r].heap == invalid_index) continue;
+      const std::uint32_t root = find_root(parent, r);
+      if (members[root] < 2) continue;
+      if (group_of_root[root] == invalid_index) group_of_root[root] = groups++;
+      state.resources[r].alias_group = group_of_root[root];
+    }
+  }
+
+  for (const HeapBuilder& h : heaps) {
+    plan.heaps.push_back(MemoryHeap{h.type, h.type_bits, h.size});
+    plan.aliased_bytes += h.size;
+  }
+  state.memory = std::move(plan);
+}
+
+}  // namespace weft::detail
