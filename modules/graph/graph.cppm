@@ -7,6 +7,7 @@ module;
 #include <cstddef>
 #include <cstdint>
 #include <expected>
+#include <functional>
 #include <memory>
 #include <new>
 #include <optional>
@@ -155,8 +156,8 @@ struct CompileOptions {
   // is estimated (texels * bytes per texel over all mips, rounded up to 64 KiB), unless the
   // functions below are given. Execute re-plans with its device's real requirements.
   const gpu::Device* device = nullptr;
-  Result<gpu::MemoryRequirements> (*texture_requirements)(const gpu::TextureDescriptor&) = nullptr;
-  Result<gpu::MemoryRequirements> (*buffer_requirements)(const gpu::BufferDescriptor&) = nullptr;
+  std::function<Result<gpu::MemoryRequirements>(const gpu::TextureDescriptor&)> texture_requirements;
+  std::function<Result<gpu::MemoryRequirements>(const gpu::BufferDescriptor&)> buffer_requirements;
   bool aliasing = true;
 };
 

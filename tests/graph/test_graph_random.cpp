@@ -1,0 +1,353 @@
+// Randomized graphs (fixed seeds): hundreds of random DAGs, each checked against a model the
+// test keeps of its own declarations — culling, order, lifetimes, memory and barriers.
+#include <doctest/doctest.h>
+#include <algorithm>
+#include <cstdint>
+#include <map>
+#include <random>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+import weft.core;
+import weft.gpu;
+import weft.graph;
+
+using namespace weft;
+
+namespace {
+
+struct Decl {
+  std::uint32_t pass;
+  std::uint32_t resource;
+  std::uint32_t in_version;
+  std::int64_t out_version;  // -1: read only
+  gpu::Access access;
+};
+
+struct Model {
+  std::vector<Decl> decls;
+  std::vector<bool> side_effect;
+  std::set<std::uint32_t> imported;
+  std::map<std::uint32_t, gpu::Access> initial;
+  std::set<std::uint32_t> textures;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> outputs;  // (resource, version)
+  std::uint32_t passes = 0;
+};
+
+struct PoolEntry {
+  std::uint32_t index;
+  std::uint32_t version;
+  bool texture;
+  bool readable;  // the latest version has contents (written, or imported)
+  std::uint32_t size;
+};
+
+template <class T>
+T pick(std::mt19937& rng, std::initializer_list<T> items) {
+  std::uniform_int_distribution<std::size_t> d(0, items.size() - 1);
+  return *(items.begin() + d(rng));
+}
+
+bool chance(std::mt19937& rng, double p) { return std::uniform_real_distribution<double>(0, 1)(rng) < p; }
+
+Model build(RenderGraph& graph, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  Model model;
+  std::vector<PoolEntry> pool;
+  using TU = gpu::TextureUsage;
+  const int imported_textures = std::uniform_int_distribution<int>(0, 2)(rng);
+  for (int i = 0; i < imported_textures; ++i) {
+    const gpu::Access initial = pick(rng, {gpu::Access::Undefined, gpu::Access::ShaderRead, gpu::Access::CopyDst});
+    auto h = graph.import_texture("import" + std::to_string(i),
+                                  gpu::TextureDescriptor{.label = "import", .size = {32, 32, 1},
+                                                         .format = gpu::Format::RGBA8Unorm,
+                                                         .usage = TU::Sampled | TU::Storage | TU::ColorAttachment |
+                                                                  TU::CopySrc | TU::CopyDst},
+                                  initial);
+    model.imported.insert(h.index);
+    model.textures.insert(h.index);
+    model.initial[h.index] = initial;
+    pool.push_back({h.index, h.version, true, true, 32});
+  }
+  if (chance(rng, 0.5)) {
+    auto h = graph.import_buffer("import_buffer", gpu::BufferDescriptor{.label = "ib", .size = 4096}, gpu::Access::CopyDst);
+    model.imported.insert(h.index);
+    model.initial[h.index] = gpu::Access::CopyDst;
+    pool.push_back({h.index, h.version, false, true, 0});
+  }
+
+  const int passes = std::uniform_int_distribution<int>(3, 40)(rng);
+  model.passes = std::uint32_t(passes);
+  for (int p = 0; p < passes; ++p) {
+    graph.add_pass("p" + std::to_string(p), [&](PassBuilder& b) {
+      std::set<std::uint32_t> used;
+      std::uint32_t attachment_size = 0;
+      auto texture_write_use = [&](std::uint32_t size) {
+        TextureUse use = pick(rng, {TextureUse::StorageWrite, TextureUse::ColorAttachment, TextureUse::CopyDst});
+        if (use == TextureUse::ColorAttachment) {
+          if (attachment_size != 0 && attachment_size != size) use = TextureUse::StorageWrite;
+          else attachment_size = size;
+        }
+        return use;
+      };
+      auto write_entry = [&](PoolEntry& e) {
+        used.insert(e.index);
+        if (e.texture) {
+          const TextureUse use = texture_write_use(e.size);
+          const TextureHandle out = b.write(TextureHandle{e.index, e.version}, use);
+          model.decls.push_back({std::uint32_t(p), e.index, e.version, out.version, access_of(use)});
+          e.version = out.version;
+        } else {
+          const BufferUse use = pick(rng, {BufferUse::StorageWrite, BufferUse::CopyDst});
+          const BufferHandle out = b.write(BufferHandle{e.index, e.version}, use);
+          model.decls.push_back({std::uint32_t(p), e.index, e.version, out.version, access_of(use)});
+          e.version = out.version;
+        }
+        e.readable = true;
+      };
+      // Reads of existing contents.
+      const int reads = std::uniform_int_distribution<int>(0, 3)(rng);
+      for (int r = 0; r < reads && !pool.empty(); ++r) {
+        PoolEntry& e = pool[std::uniform_int_distribution<std::size_t>(0, pool.size() - 1)(rng)];
+        if (!e.readable || used.count(e.index)) continue;
+        used.insert(e.index);
+        if (e.texture) {
+          const TextureUse use = pick(rng, {TextureUse::Sampled, TextureUse::StorageRead, TextureUse::CopySrc});
+          b.read(TextureHandle{e.index, e.version}, use);
+          model.decls.push_back({std::uint32_t(p), e.index, e.version, -1, access_of(use)});
+        } else {
+          const BufferUse use = pick(rng, {BufferUse::Uniform, BufferUse::StorageRead, BufferUse::Vertex,
+                                           BufferUse::Index, BufferUse::Indirect, BufferUse::CopySrc});
+          b.read(BufferHandle{e.index, e.version}, use);
+          model.decls.push_back({std::uint32_t(p), e.index, e.version, -1, access_of(use)});
+        }
+      }
+      // Writes of existing resources.
+      const int writes = std::uniform_int_distribution<int>(0, 1)(rng);
+      for (int w = 0; w < writes && !pool.empty(); ++w) {
+        PoolEntry& e = pool[std::uniform_int_distribution<std::size_t>(0, pool.size() - 1)(rng)];
+        if (used.count(e.index)) continue;
+        write_entry(e);
+      }
+      // New transients.
+      const int creates = std::uniform_int_distribution<int>(0, 2)(rng);
+      for (int c = 0; c < creates; ++c) {
+        if (chance(rng, 0.75)) {
+          const std::uint32_t size = pick(rng, {16u, 32u, 64u});
+          auto h = b.create_texture("t" + std::to_string(p) + "_" + std::to_string(c),
+                                    {.size = gpu::Extent3D{size, size, 1},
+                                     .format = pick(rng, {gpu::Format::RGBA8Unorm, gpu::Format::RGBA16Float,
+                                                          gpu::Format::R32Float})});
+          model.textures.insert(h.index);
+          pool.push_back({h.index, h.version, true, false, size});
+        } else {
+          auto h = b.create_buffer("b" + std::to_string(p) + "_" + std::to_string(c),
+                                   {.size = pick(rng, {256ull, 4096ull, 100000ull})});
+          pool.push_back({h.index, h.version, false, false, 0});
+        }
+        write_entry(pool.back());
+      }
+      model.side_effect.push_back(chance(rng, 0.1));
+      if (model.side_effect.back()) b.side_effect();
+    });
+  }
+  // Outputs: a few resources that were written, at their latest version.
+  std::vector<std::size_t> written;
+  for (std::size_t i = 0; i < pool.size(); ++i)
+    if (pool[i].version > 0) written.push_back(i);
+  std::shuffle(written.begin(), written.end(), rng);
+  for (std::size_t i = 0; i < std::min<std::size_t>(written.size(), 2); ++i) {
+    const PoolEntry& e = pool[written[i]];
+    if (e.texture) graph.mark_output(TextureHandle{e.index, e.version});
+    else graph.mark_output(BufferHandle{e.index, e.version});
+    model.outputs.push_back({e.index, e.version});
+  }
+  return model;
+}
+
+bool needs_barrier(gpu::Access before, gpu::Access after) {
+  return before != after || gpu::is_write(before) || gpu::is_write(after);
+}
+
+void check(const Model& m, const CompiledGraph& g, std::uint32_t seed) {
+  INFO("seed " << seed);
+  // Producers of every version, from the model.
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> producer;
+  for (const Decl& d : m.decls)
+    if (d.out_version >= 0) producer[{d.resource, std::uint32_t(d.out_version)}] = d.pass;
+
+  // Culling: closure from side effects, imported writes and output producers.
+  std::vector<bool> alive(m.passes, false);
+  std::vector<std::uint32_t> stack;
+  auto keep = [&](std::uint32_t p) {
+    if (!alive[p]) {
+      alive[p] = true;
+      stack.push_back(p);
+    }
+  };
+  for (std::uint32_t p = 0; p < m.passes; ++p)
+    if (m.side_effect[p]) keep(p);
+  for (const Decl& d : m.decls)
+    if (d.out_version >= 0 && m.imported.count(d.resource)) keep(d.pass);
+  for (auto [r, v] : m.outputs) keep(producer.at({r, v}));
+  while (!stack.empty()) {
+    const std::uint32_t p = stack.back();
+    stack.pop_back();
+    for (const Decl& d : m.decls)
+      if (d.pass == p)
+        if (auto it = producer.find({d.resource, d.in_version}); it != producer.end()) keep(it->second);
+  }
+  for (std::uint32_t p = 0; p < m.passes; ++p) CHECK_MESSAGE(g.passes()[p].culled == !alive[p], "pass p" << p);
+
+  // Order: every edge between alive passes is respected.
+  std::vector<std::uint32_t> position(m.passes, ~0u);
+  for (std::uint32_t i = 0; i < g.order().size(); ++i) position[g.order()[i]] = i;
+  for (std::uint32_t p = 0; p < m.passes; ++p) CHECK(alive[p] == (position[p] != ~0u));
+  for (const Decl& d : m.decls) {
+    if (!alive[d.pass]) continue;
+    if (auto it = producer.find({d.resource, d.in_version}); it != producer.end() && it->second != d.pass)
+      CHECK_MESSAGE(position[it->second] < position[d.pass], "producer before user of resource " << d.resource);
+    if (d.out_version >= 0)  // readers of the version this write replaces come first
+      for (const Decl& r : m.decls)
+        if (alive[r.pass] && r.pass != d.pass && r.resource == d.resource && r.in_version == d.in_version &&
+            r.out_version < 0)
+          CHECK_MESSAGE(position[r.pass] < position[d.pass], "write after read of resource " << d.resource);
+  }
+
+  // Lifetimes and memory: nothing live at the same time overlaps in memory.
+  const auto resources = g.resources();
+  for (std::size_t x = 0; x < resources.size(); ++x) {
+    const ResourceInfo& p = resources[x];
+    if (p.heap == invalid_index) continue;
+    CHECK(p.bytes > 0);
+    for (std::size_t y = x + 1; y < resources.size(); ++y) {
+      const ResourceInfo& q = resources[y];
+      if (q.heap != p.heap) continue;
+      const bool live_together = p.first_use <= q.last_use && q.first_use <= p.last_use;
+      const bool overlap = p.offset < q.offset + q.bytes && q.offset < p.offset + p.bytes;
+      CHECK_FALSE_MESSAGE((live_together && overlap), p.name, " and ", q.name);
+    }
+  }
+  CHECK(g.memory().aliased_bytes <= g.memory().unaliased_bytes + 64 * 1024 * g.memory().heaps.size());
+
+  // Barriers: walk each resource's accesses in order; every hazard has its barrier, equal
+  // reads have none, and a resource taking over memory waits on the resources it replaces.
+  std::map<std::uint32_t, std::vector<std::uint32_t>> takeovers;  // resource -> previous occupants
+  for (std::uint32_t pos = 0; pos < g.order().size(); ++pos)
+    for (const PlannedBarrier& b : g.barriers_before(g.order()[pos]))
+      if (b.previous_occupant != invalid_index) takeovers[b.resource].push_back(b.previous_occupant);
+  std::map<std::uint32_t, gpu::Access> state;
+  for (std::uint32_t pos = 0; pos < g.order().size(); ++pos) {
+    const std::uint32_t p = g.order()[pos];
+    const auto barriers = g.barriers_before(p);
+    for (const Decl& d : m.decls) {
+      if (d.pass != p) continue;
+      const bool imported = m.imported.count(d.resource) > 0;
+      const bool texture = m.textures.count(d.resource) > 0;
+      auto found = [&](gpu::Access before) {
+        return std::any_of(barriers.begin(), barriers.end(), [&](const PlannedBarrier& b) {
+          return b.resource == d.resource && b.before == before && b.after == d.access;
+        });
+      };
+      const bool first_use = !state.count(d.resource);
+      const gpu::Access before = first_use ? (imported ? m.initial.at(d.resource) : gpu::Access::Undefined)
+                                           : state.at(d.resource);
+      if (first_use && !imported) {
+        if (texture || takeovers.count(d.resource))
+          CHECK_MESSAGE(found(gpu::Access::Undefined), "first use of resource " << d.resource << " at pass p" << p);
+      } else if (before == gpu::Access::Undefined) {
+        if (texture) CHECK_MESSAGE(found(before), "layout of imported " << d.resource);
+      } else if (needs_barrier(before, d.access)) {
+        CHECK_MESSAGE(found(before), "hazard on resource " << d.resource << " at pass p" << p << ": "
+                                                            << gpu::to_string(before) << " -> "
+                                                            << gpu::to_string(d.access));
+      } else {
+        CHECK_FALSE_MESSAGE(found(before), "needless barrier on resource " << d.resource);
+      }
+      state[d.resource] = d.access;
+    }
+  }
+  // Every earlier user of memory a resource takes over is reachable through takeovers.
+  for (std::size_t y = 0; y < resources.size(); ++y) {
+    const ResourceInfo& q = resources[y];
+    if (q.heap == invalid_index) continue;
+    std::set<std::uint32_t> reach;
+    std::vector<std::uint32_t> todo{std::uint32_t(y)};
+    while (!todo.empty()) {
+      const std::uint32_t r = todo.back();
+      todo.pop_back();
+      for (std::uint32_t o : takeovers[r])
+        if (reach.insert(o).second) todo.push_back(o);
+    }
+    for (std::size_t x = 0; x < resources.size(); ++x) {
+      const ResourceInfo& p = resources[x];
+      if (x == y || p.heap != q.heap || p.last_use >= q.first_use) continue;
+      const bool overlap = p.offset < q.offset + q.bytes && q.offset < p.offset + p.bytes;
+      if (overlap) CHECK_MESSAGE(reach.count(std::uint32_t(x)), q.name << " takes over " << p.name << " unsynchronized");
+    }
+  }
+}
+
+}  // namespace
+
+TEST_CASE("random DAGs: culling, order, memory and barriers agree with the declarations") {
+  int compiled_graphs = 0, aliased = 0;
+  for (std::uint32_t seed = 1; seed <= 400; ++seed) {
+    RenderGraph graph("random");
+    const Model model = build(graph, seed);
+    auto compiled = graph.compile({.output_extent = {64, 64, 1}});
+    REQUIRE_MESSAGE(compiled, "seed " << seed << ": " << compiled.error().to_string());
+    check(model, *compiled, seed);
+    ++compiled_graphs;
+    aliased += compiled->memory().aliased_bytes < compiled->memory().unaliased_bytes ? 1 : 0;
+  }
+  CHECK(compiled_graphs == 400);
+  CHECK(aliased > 100);  // the generator produces graphs where aliasing matters
+}
+
+TEST_CASE("random DAGs: stale reads either order correctly or report a cycle naming its passes") {
+  int cycles = 0, orders = 0;
+  for (std::uint32_t seed = 1000; seed < 1200; ++seed) {
+    std::mt19937 rng(seed);
+    RenderGraph graph("stale");
+    const int n = std::uniform_int_distribution<int>(3, 12)(rng);
+    std::vector<TextureHandle> versions;  // every version of one texture
+    std::vector<TextureHandle> others;
+    graph.add_pass("init", [&](PassBuilder& b) {
+      versions.push_back(b.write(b.create_texture("x", {.size = gpu::Extent3D{8, 8, 1}}), TextureUse::StorageWrite));
+    });
+    for (int p = 0; p < n; ++p) {
+      graph.add_pass("p" + std::to_string(p), [&](PassBuilder& b) {
+        if (!others.empty() && chance(rng, 0.5))
+          b.read(others[std::uniform_int_distribution<std::size_t>(0, others.size() - 1)(rng)], TextureUse::Sampled);
+        if (chance(rng, 0.5)) {
+          versions.push_back(b.write(versions.back(), TextureUse::StorageWrite));
+        } else {
+          b.read(versions[std::uniform_int_distribution<std::size_t>(0, versions.size() - 1)(rng)],
+                 TextureUse::Sampled);
+          others.push_back(b.write(b.create_texture("o" + std::to_string(p), {.size = gpu::Extent3D{8, 8, 1}}),
+                                   TextureUse::StorageWrite));
+        }
+        b.side_effect();
+      });
+    }
+    auto compiled = graph.compile({.output_extent = {8, 8, 1}});
+    if (compiled) {
+      ++orders;
+      CHECK(compiled->order().size() == std::size_t(n + 1));
+      continue;
+    }
+    ++cycles;
+    for (const GraphError& e : compiled.error().errors) {
+      REQUIRE_MESSAGE(e.kind == GraphErrorKind::Cycle, e.message);
+      CHECK(e.passes.size() >= 2);
+      std::string expected = "cycle: ";
+      for (const std::string& pass : e.passes) expected += "'" + pass + "' -> ";
+      expected += "'" + e.passes.front() + "' through ";
+      CHECK_MESSAGE(e.message.rfind(expected, 0) == 0, e.message);
+    }
+  }
+  CHECK(cycles > 0);
+  CHECK(orders > 0);
+}
