@@ -67,13 +67,13 @@ CommandEncoder::~CommandEncoder() {
   if (device_ && cmd_) vkFreeCommandBuffers(device_->device, device_->command_pool, 1, &cmd_);
 }
 
-void CommandEncoder::record_error(Error error) {
+void CommandEncoder::report_error(Error error) {
   if (!error_) error_ = std::move(error);
 }
 
 bool CommandEncoder::check_outside_pass(std::string_view what) {
   if (in_pass_) {
-    record_error({ErrorKind::InvalidArgument,
+    report_error({ErrorKind::InvalidArgument,
                   weft::format("command encoder '{}': {} inside a render or compute pass", label_, what)});
     return false;
   }
@@ -81,7 +81,7 @@ bool CommandEncoder::check_outside_pass(std::string_view what) {
 }
 
 Result<CommandBuffer> CommandEncoder::finish() {
-  if (in_pass_) record_error({ErrorKind::InvalidArgument, weft::format("command encoder '{}': finish() with a pass still open", label_)});
+  if (in_pass_) report_error({ErrorKind::InvalidArgument, weft::format("command encoder '{}': finish() with a pass still open", label_)});
   if (error_) return std::unexpected(*error_);
   if (VkResult r = vkEndCommandBuffer(cmd_); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("finishing command encoder '{}'", label_)));
@@ -162,11 +162,11 @@ void CommandEncoder::copy_buffer_to_buffer(const Buffer& src, std::uint64_t src_
                                            std::uint64_t dst_offset, std::uint64_t size) {
   if (!check_outside_pass("copy_buffer_to_buffer")) return;
   if (!has(src.usage(), BufferUsage::CopySrc) && !has(src.usage(), BufferUsage::MapWrite))
-    return record_error({ErrorKind::InvalidArgument, weft::format("copy source buffer '{}' lacks copy-src usage (has {})", src.label(), to_string(src.usage()))});
+    return report_error({ErrorKind::InvalidArgument, weft::format("copy source buffer '{}' lacks copy-src usage (has {})", src.label(), to_string(src.usage()))});
   if (!has(dst.usage(), BufferUsage::CopyDst) && !has(dst.usage(), BufferUsage::MapRead))
-    return record_error({ErrorKind::InvalidArgument, weft::format("copy destination buffer '{}' lacks copy-dst usage (has {})", dst.label(), to_string(dst.usage()))});
+    return report_error({ErrorKind::InvalidArgument, weft::format("copy destination buffer '{}' lacks copy-dst usage (has {})", dst.label(), to_string(dst.usage()))});
   if (size == 0 || src_offset + size > src.size() || dst_offset + size > dst.size())
-    return record_error({ErrorKind::InvalidArgument,
+    return report_error({ErrorKind::InvalidArgument,
                          weft::format("copy of {} bytes from '{}'+{} ({} bytes) to '{}'+{} ({} bytes) is out of range",
                                      size, src.label(), src_offset, src.size(), dst.label(), dst_offset, dst.size())});
   VkBufferCopy region{src_offset, dst_offset, size};
@@ -177,11 +177,11 @@ void CommandEncoder::copy_buffer_to_texture(const Buffer& src, std::uint64_t src
                                             std::uint32_t mip) {
   if (!check_outside_pass("copy_buffer_to_texture")) return;
   if (!has(dst.usage(), TextureUsage::CopyDst))
-    return record_error({ErrorKind::InvalidArgument, weft::format("copy destination texture '{}' lacks copy-dst usage (has {})", dst.label(), to_string(dst.usage()))});
+    return report_error({ErrorKind::InvalidArgument, weft::format("copy destination texture '{}' lacks copy-dst usage (has {})", dst.label(), to_string(dst.usage()))});
   if (mip >= dst.descriptor().mip_level_count)
-    return record_error({ErrorKind::InvalidArgument, weft::format("texture '{}' has no mip {}", dst.label(), mip)});
+    return report_error({ErrorKind::InvalidArgument, weft::format("texture '{}' has no mip {}", dst.label(), mip)});
   if (src_offset + mip_bytes(dst, mip) > src.size())
-    return record_error({ErrorKind::InvalidArgument, weft::format("buffer '{}' ({} bytes from offset {}) is too small for mip {} of texture '{}' ({} bytes)",
+    return report_error({ErrorKind::InvalidArgument, weft::format("buffer '{}' ({} bytes from offset {}) is too small for mip {} of texture '{}' ({} bytes)",
                                                                  src.label(), src.size(), src_offset, mip, dst.label(), mip_bytes(dst, mip))});
   VkBufferImageCopy region{};
   region.bufferOffset = src_offset;
@@ -194,11 +194,11 @@ void CommandEncoder::copy_texture_to_buffer(const Texture& src, const Buffer& ds
                                             std::uint32_t mip) {
   if (!check_outside_pass("copy_texture_to_buffer")) return;
   if (!has(src.usage(), TextureUsage::CopySrc))
-    return record_error({ErrorKind::InvalidArgument, weft::format("copy source texture '{}' lacks copy-src usage (has {})", src.label(), to_string(src.usage()))});
+    return report_error({ErrorKind::InvalidArgument, weft::format("copy source texture '{}' lacks copy-src usage (has {})", src.label(), to_string(src.usage()))});
   if (mip >= src.descriptor().mip_level_count)
-    return record_error({ErrorKind::InvalidArgument, weft::format("texture '{}' has no mip {}", src.label(), mip)});
+    return report_error({ErrorKind::InvalidArgument, weft::format("texture '{}' has no mip {}", src.label(), mip)});
   if (dst_offset + mip_bytes(src, mip) > dst.size())
-    return record_error({ErrorKind::InvalidArgument, weft::format("buffer '{}' ({} bytes from offset {}) is too small for mip {} of texture '{}' ({} bytes)",
+    return report_error({ErrorKind::InvalidArgument, weft::format("buffer '{}' ({} bytes from offset {}) is too small for mip {} of texture '{}' ({} bytes)",
                                                                  dst.label(), dst.size(), dst_offset, mip, src.label(), mip_bytes(src, mip))});
   VkBufferImageCopy region{};
   region.bufferOffset = dst_offset;
@@ -210,10 +210,10 @@ void CommandEncoder::copy_texture_to_buffer(const Texture& src, const Buffer& ds
 void CommandEncoder::fill_buffer(const Buffer& buffer, std::uint32_t value, std::uint64_t offset, std::uint64_t size) {
   if (!check_outside_pass("fill_buffer")) return;
   if (!has(buffer.usage(), BufferUsage::CopyDst))
-    return record_error({ErrorKind::InvalidArgument, weft::format("filled buffer '{}' lacks copy-dst usage (has {})", buffer.label(), to_string(buffer.usage()))});
+    return report_error({ErrorKind::InvalidArgument, weft::format("filled buffer '{}' lacks copy-dst usage (has {})", buffer.label(), to_string(buffer.usage()))});
   const std::uint64_t n = size ? size : buffer.size() - offset;
   if (offset % 4 || n % 4 || offset + n > buffer.size())
-    return record_error({ErrorKind::InvalidArgument, weft::format("fill of buffer '{}': range [{}, {}) must be 4-byte aligned and within {} bytes",
+    return report_error({ErrorKind::InvalidArgument, weft::format("fill of buffer '{}': range [{}, {}) must be 4-byte aligned and within {} bytes",
                                                                  buffer.label(), offset, offset + n, buffer.size())});
   vkCmdFillBuffer(cmd_, buffer.buffer_, offset, n, value);
 }
@@ -225,7 +225,7 @@ void CommandEncoder::reset_query_set(const QuerySet& set) {
 
 void CommandEncoder::write_timestamp(const QuerySet& set, std::uint32_t index) {
   if (index >= set.count())
-    return record_error({ErrorKind::InvalidArgument, weft::format("timestamp {} is out of range of query set '{}' ({} queries)", index, set.label(), set.count())});
+    return report_error({ErrorKind::InvalidArgument, weft::format("timestamp {} is out of range of query set '{}' ({} queries)", index, set.label(), set.count())});
   vkCmdWriteTimestamp2(cmd_, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, set.pool_, index);
 }
 
@@ -239,7 +239,7 @@ RenderPassEncoder CommandEncoder::begin_render_pass(const RenderPassDescriptor& 
     return pass;
   }
   auto bad = [&](std::string message) {
-    record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': {}", desc.label, message)});
+    report_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': {}", desc.label, message)});
     pass.ended_ = true;
     return std::move(pass);
   };
@@ -285,9 +285,10 @@ RenderPassEncoder CommandEncoder::begin_render_pass(const RenderPassDescriptor& 
       return bad(weft::format("depth attachment texture '{}' is {}x{}, the color attachments are {}x{}", t.label(),
                              t.size().width, t.size().height, extent->width, extent->height));
     depth.imageView = a.view->view_;
-    depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
-    depth.loadOp = load_op(a.load);
-    depth.storeOp = store_op(a.store);
+    depth.imageLayout = a.read_only ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_READ_ONLY_OPTIMAL
+                                    : VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    depth.loadOp = a.read_only ? VK_ATTACHMENT_LOAD_OP_LOAD : load_op(a.load);
+    depth.storeOp = a.read_only ? VK_ATTACHMENT_STORE_OP_NONE : store_op(a.store);
     depth.clearValue.depthStencil = {a.clear_depth, 0};
     pass.depth_format_ = t.format();
   }
@@ -327,7 +328,7 @@ RenderPassEncoder::RenderPassEncoder(RenderPassEncoder&& o) noexcept
 
 RenderPassEncoder::~RenderPassEncoder() {
   if (encoder_ && !ended_) {
-    encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}' was never ended", label_)});
+    encoder_->report_error({ErrorKind::InvalidArgument, weft::format("render pass '{}' was never ended", label_)});
     end();
   }
 }
@@ -338,7 +339,7 @@ void RenderPassEncoder::set_pipeline(const RenderPipeline& pipeline) {
     std::string want, have;
     for (auto f : pipeline.color_formats_) want += std::string(to_string(f)) + " ";
     for (auto f : color_formats_) have += std::string(to_string(f)) + " ";
-    encoder_->record_error({ErrorKind::InvalidArgument,
+    encoder_->report_error({ErrorKind::InvalidArgument,
                             weft::format("render pass '{}': pipeline '{}' targets [{}] depth {} but the pass has [{}] depth {}",
                                         label_, pipeline.label(), want, to_string(pipeline.depth_format_), have,
                                         to_string(depth_format_))});
@@ -354,7 +355,7 @@ void RenderPassEncoder::set_pipeline(const RenderPipeline& pipeline) {
 void RenderPassEncoder::set_bind_group(std::uint32_t index, const BindGroup& group) {
   if (ended_) return;
   if (index >= groups_.size())
-    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': bind group index {} >= 8 (group '{}')", label_, index, group.label())});
+    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': bind group index {} >= 8 (group '{}')", label_, index, group.label())});
   groups_[index] = group.set_;
   dirty_groups_ |= 1u << index;
 }
@@ -362,7 +363,7 @@ void RenderPassEncoder::set_bind_group(std::uint32_t index, const BindGroup& gro
 void RenderPassEncoder::set_vertex_buffer(std::uint32_t slot, const Buffer& buffer, std::uint64_t offset) {
   if (ended_) return;
   if (!has(buffer.usage(), BufferUsage::Vertex))
-    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': buffer '{}' set as vertex buffer lacks vertex usage (has {})",
+    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': buffer '{}' set as vertex buffer lacks vertex usage (has {})",
                                                                            label_, buffer.label(), to_string(buffer.usage()))});
   VkDeviceSize off = offset;
   vkCmdBindVertexBuffers(encoder_->cmd_, slot, 1, &buffer.buffer_, &off);
@@ -371,7 +372,7 @@ void RenderPassEncoder::set_vertex_buffer(std::uint32_t slot, const Buffer& buff
 void RenderPassEncoder::set_index_buffer(const Buffer& buffer, std::uint64_t offset) {
   if (ended_) return;
   if (!has(buffer.usage(), BufferUsage::Index))
-    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': buffer '{}' set as index buffer lacks index usage (has {})",
+    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': buffer '{}' set as index buffer lacks index usage (has {})",
                                                                            label_, buffer.label(), to_string(buffer.usage()))});
   vkCmdBindIndexBuffer(encoder_->cmd_, buffer.buffer_, offset, VK_INDEX_TYPE_UINT32);
   index_bound_ = true;
@@ -380,9 +381,9 @@ void RenderPassEncoder::set_index_buffer(const Buffer& buffer, std::uint64_t off
 void RenderPassEncoder::set_push_constants(std::span<const std::byte> data, std::uint32_t offset) {
   if (ended_) return;
   if (!pipeline_)
-    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': push constants before set_pipeline", label_)});
+    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': push constants before set_pipeline", label_)});
   if (offset + data.size() > pipeline_->push_constant_size_ || data.size() % 4 || offset % 4)
-    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': {} bytes of push constants at offset {} exceed pipeline '{}''s {} bytes (or are not 4-byte aligned)",
+    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': {} bytes of push constants at offset {} exceed pipeline '{}''s {} bytes (or are not 4-byte aligned)",
                                                                            label_, data.size(), offset, pipeline_->label(), pipeline_->push_constant_size_)});
   vkCmdPushConstants(encoder_->cmd_, pipeline_->layout_, VK_SHADER_STAGE_ALL, offset, std::uint32_t(data.size()), data.data());
 }
@@ -396,7 +397,7 @@ void RenderPassEncoder::set_viewport(float x, float y, float width, float height
 bool RenderPassEncoder::check_draw(std::string_view what) {
   if (ended_) return false;
   if (!pipeline_) {
-    encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': {} without a pipeline", label_, what)});
+    encoder_->report_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': {} without a pipeline", label_, what)});
     return false;
   }
   for (std::uint32_t i = 0; i < groups_.size(); ++i)
@@ -416,7 +417,7 @@ void RenderPassEncoder::draw_indexed(std::uint32_t index_count, std::uint32_t in
                                      std::int32_t base_vertex, std::uint32_t first_instance) {
   if (!check_draw("draw_indexed")) return;
   if (!index_bound_)
-    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': draw_indexed without an index buffer", label_)});
+    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("render pass '{}': draw_indexed without an index buffer", label_)});
   vkCmdDrawIndexed(encoder_->cmd_, index_count, instance_count, first_index, base_vertex, first_instance);
 }
 
@@ -452,7 +453,7 @@ ComputePassEncoder::ComputePassEncoder(ComputePassEncoder&& o) noexcept
 
 ComputePassEncoder::~ComputePassEncoder() {
   if (encoder_ && !ended_) {
-    encoder_->record_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}' was never ended", label_)});
+    encoder_->report_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}' was never ended", label_)});
     end();
   }
 }
@@ -469,7 +470,7 @@ void ComputePassEncoder::set_pipeline(const ComputePipeline& pipeline) {
 void ComputePassEncoder::set_bind_group(std::uint32_t index, const BindGroup& group) {
   if (ended_) return;
   if (index >= groups_.size())
-    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': bind group index {} >= 8 (group '{}')", label_, index, group.label())});
+    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': bind group index {} >= 8 (group '{}')", label_, index, group.label())});
   groups_[index] = group.set_;
   dirty_groups_ |= 1u << index;
 }
@@ -477,9 +478,9 @@ void ComputePassEncoder::set_bind_group(std::uint32_t index, const BindGroup& gr
 void ComputePassEncoder::set_push_constants(std::span<const std::byte> data, std::uint32_t offset) {
   if (ended_) return;
   if (!pipeline_)
-    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': push constants before set_pipeline", label_)});
+    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': push constants before set_pipeline", label_)});
   if (offset + data.size() > pipeline_->push_constant_size_ || data.size() % 4 || offset % 4)
-    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': {} bytes of push constants at offset {} exceed pipeline '{}''s {} bytes (or are not 4-byte aligned)",
+    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': {} bytes of push constants at offset {} exceed pipeline '{}''s {} bytes (or are not 4-byte aligned)",
                                                                            label_, data.size(), offset, pipeline_->label(), pipeline_->push_constant_size_)});
   vkCmdPushConstants(encoder_->cmd_, pipeline_->layout_, VK_SHADER_STAGE_ALL, offset, std::uint32_t(data.size()), data.data());
 }
@@ -487,7 +488,7 @@ void ComputePassEncoder::set_push_constants(std::span<const std::byte> data, std
 void ComputePassEncoder::dispatch(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
   if (ended_) return;
   if (!pipeline_)
-    return encoder_->record_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': dispatch without a pipeline", label_)});
+    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': dispatch without a pipeline", label_)});
   for (std::uint32_t i = 0; i < groups_.size(); ++i)
     if (dirty_groups_ & (1u << i))
       vkCmdBindDescriptorSets(encoder_->cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_->layout_, i, 1, &groups_[i], 0, nullptr);

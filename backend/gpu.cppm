@@ -623,6 +623,9 @@ struct DepthAttachment {
   LoadOp load = LoadOp::Clear;
   StoreOp store = StoreOp::Store;
   float clear_depth = 1.0f;
+  // Depth-tested but never written (texture in DepthRead state): loads, stores nothing,
+  // and may be sampled by the same pass.
+  bool read_only = false;
 };
 struct RenderPassDescriptor {
   std::string label;
@@ -746,12 +749,15 @@ class CommandEncoder {
   void push_debug_group(std::string_view label);
   void pop_debug_group();
 
+  // Records an error found while recording (e.g. by a pass's own validation); the first
+  // one is what finish() returns.
+  void report_error(Error error);
+
   // The first recorded error, naming the object and the encoder, or the command buffer.
   Result<CommandBuffer> finish();
 
  private:
   CommandEncoder() = default;
-  void record_error(Error error);
   bool check_outside_pass(std::string_view what);
   std::shared_ptr<detail::DeviceShared> device_;
   VkCommandBuffer cmd_ = VK_NULL_HANDLE;

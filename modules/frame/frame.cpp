@@ -8,6 +8,7 @@ module;
 #include <string>
 #include <vector>
 #include <glm/gtc/matrix_transform.hpp>
+#include "weft_frame_shaders.h"
 module weft.frame;
 import weft.core;
 import weft.gpu;
@@ -104,6 +105,8 @@ vec3 evaluate_sh(const std::array<vec4, 9>& sh, vec3 n) {
   for (int k = 0; k < 9; ++k) e += vec3(sh[k]) * basis[k];
   return e;
 }
+
+std::span<const std::uint32_t> fullscreen_vertex_spirv() { return shaders::fullscreen_vert(); }
 
 mat4 perspective_vk(float fov, float aspect, float near_plane, float far_plane) {
   mat4 p = glm::perspectiveRH_ZO(fov, aspect, near_plane, far_plane);

@@ -86,6 +86,9 @@ std::array<vec4, 9> irradiance_sh(std::span<const float> rgb, std::uint32_t widt
                                   float rotation_radians = 0.0f);
 vec3 evaluate_sh(const std::array<vec4, 9>& sh, vec3 normal);
 
+// SPIR-V of shaders/fullscreen.vert: one triangle over the screen at the far plane, `uv` out.
+std::span<const std::uint32_t> fullscreen_vertex_spirv();
+
 // A camera for Vulkan's clip space (y down, depth 0..1, right-handed view).
 mat4 perspective_vk(float vertical_fov_radians, float aspect, float near_plane, float far_plane);
 

@@ -1,0 +1,94 @@
+module;
+#include <expected>
+#include <memory>
+#include <vector>
+#include "weft_pass_background_shaders.h"
+module weft.pass.background;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+
+namespace weft::passes {
+
+struct BackgroundPass::State {
+  gpu::BindGroupLayout bind_layout;
+  gpu::PipelineLayout layout;
+  gpu::RenderPipeline pipeline;
+  gpu::Sampler sampler;
+  std::vector<gpu::BindGroup> frame_groups;
+};
+
+Result<BackgroundPass> BackgroundPass::create(gpu::Device& device) {
+  auto vs = device.create_shader_module({.label = "fullscreen.vert", .stage = gpu::ShaderStage::Vertex, .spirv = frame::fullscreen_vertex_spirv()});
+  if (!vs) return std::unexpected(vs.error());
+  auto fs = device.create_shader_module({.label = "background.frag", .stage = gpu::ShaderStage::Fragment, .spirv = shaders::background_frag()});
+  if (!fs) return std::unexpected(fs.error());
+  auto bind_layout = device.create_bind_group_layout(
+      {.label = "background",
+       .entries = {{0, gpu::BindingType::UniformBuffer, gpu::ShaderStage::Fragment},
+                   {1, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}});
+  if (!bind_layout) return std::unexpected(bind_layout.error());
+  auto layout = device.create_pipeline_layout({.label = "background", .bind_group_layouts = {&*bind_layout}});
+  if (!layout) return std::unexpected(layout.error());
+  auto pipeline = device.create_render_pipeline(
+      {.label = "background",
+       .layout = &*layout,
+       .vertex = &*vs,
+       .fragment = &*fs,
+       .color_targets = {{gpu::Format::RGBA16Float}},
+       .depth_stencil = gpu::DepthStencilState{.format = gpu::Format::Depth32Float, .depth_write = false,
+                                               .compare = gpu::CompareFunction::LessEqual}});
+  if (!pipeline) return std::unexpected(pipeline.error());
+  auto sampler = device.create_sampler({.label = "environment", .address_mode = gpu::AddressMode::Repeat});
+  if (!sampler) return std::unexpected(sampler.error());
+  BackgroundPass pass;
+  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*layout), std::move(*pipeline),
+                                              std::move(*sampler), {}});
+  return pass;
+}
+
+Result<void> BackgroundPass::add(RenderGraph& graph) const {
+  struct Data {
+    BufferHandle uniforms;
+    TextureHandle environment, color, depth;
+  };
+  auto& board = graph.blackboard();
+  auto uniforms = board.get<BufferHandle>("frame_uniforms");
+  auto environment = board.get<TextureHandle>("environment");
+  auto color = board.get<TextureHandle>("scene_color");
+  auto depth = board.get<TextureHandle>("scene_depth");
+  for (const Error* e : {uniforms ? nullptr : &uniforms.error(), environment ? nullptr : &environment.error(),
+                         color ? nullptr : &color.error(), depth ? nullptr : &depth.error()})
+    if (e) return std::unexpected(*e);
+  auto state = state_;
+  auto& data = graph.add_pass<Data>(
+      "background",
+      [&](PassBuilder& b, Data& d) {
+        d.uniforms = b.read(*uniforms, BufferUse::Uniform);
+        d.environment = b.read(*environment, TextureUse::Sampled);
+        d.depth = b.read(*depth, TextureUse::DepthRead);
+        d.color = b.write(*color, TextureUse::ColorAttachment);
+      },
+      [state](const PassResources& res, const Data& d, PassContext& ctx) {
+        state->frame_groups.clear();
+        auto group = ctx.device().create_bind_group(
+            {.label = "background",
+             .layout = &state->bind_layout,
+             .entries = {gpu::bind(0, res.buffer(d.uniforms)), gpu::bind(1, res.view(d.environment), &state->sampler)}});
+        if (!group) return ctx.encoder().report_error(group.error());
+        state->frame_groups.push_back(std::move(*group));
+        auto pass = ctx.encoder().begin_render_pass(
+            {.label = "background",
+             .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}},
+             .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .read_only = true}});
+        pass.set_pipeline(state->pipeline);
+        pass.set_bind_group(0, state->frame_groups.back());
+        pass.draw(3);
+        pass.end();
+      });
+  board.put("scene_color", data.color);
+  return {};
+}
+
+}  // namespace weft::passes

@@ -1,0 +1,120 @@
+module;
+#include <cstdint>
+#include <expected>
+#include <memory>
+#include <span>
+#include <vector>
+#include "weft_pass_forward_shaders.h"
+module weft.pass.forward;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+
+namespace weft::passes {
+
+struct ForwardPass::State {
+  gpu::BindGroupLayout bind_layout;
+  gpu::PipelineLayout layout;
+  gpu::RenderPipeline pipeline;
+  gpu::Sampler shadow_sampler;
+  gpu::Sampler environment_sampler;
+  std::vector<gpu::BindGroup> frame_groups;  // kept until the next frame: the GPU reads them
+};
+
+namespace {
+struct DrawConstants {
+  mat4 model;
+  vec4 base_color_metallic;
+  vec4 roughness_emissive;
+};
+}  // namespace
+
+Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
+  auto vs = device.create_shader_module({.label = "forward.vert", .stage = gpu::ShaderStage::Vertex, .spirv = shaders::forward_vert()});
+  if (!vs) return std::unexpected(vs.error());
+  auto fs = device.create_shader_module({.label = "forward.frag", .stage = gpu::ShaderStage::Fragment, .spirv = shaders::forward_frag()});
+  if (!fs) return std::unexpected(fs.error());
+  auto bind_layout = device.create_bind_group_layout(
+      {.label = "forward",
+       .entries = {{0, gpu::BindingType::UniformBuffer, gpu::ShaderStage::Vertex | gpu::ShaderStage::Fragment},
+                   {1, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
+                   {2, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}});
+  if (!bind_layout) return std::unexpected(bind_layout.error());
+  auto layout = device.create_pipeline_layout(
+      {.label = "forward", .bind_group_layouts = {&*bind_layout}, .push_constant_size = sizeof(DrawConstants)});
+  if (!layout) return std::unexpected(layout.error());
+  auto pipeline = device.create_render_pipeline({.label = "forward",
+                                                 .layout = &*layout,
+                                                 .vertex = &*vs,
+                                                 .fragment = &*fs,
+                                                 .vertex_buffers = {frame::vertex_layout()},
+                                                 .cull_mode = gpu::CullMode::None,
+                                                 .color_targets = {{scene_color_format}},
+                                                 .depth_stencil = gpu::DepthStencilState{.format = scene_depth_format}});
+  if (!pipeline) return std::unexpected(pipeline.error());
+  auto shadow_sampler = device.create_sampler({.label = "shadow-compare", .mipmap_filter = gpu::FilterMode::Nearest,
+                                               .compare = gpu::CompareFunction::LessEqual, .max_lod = 0.0f});
+  if (!shadow_sampler) return std::unexpected(shadow_sampler.error());
+  auto environment_sampler = device.create_sampler({.label = "environment", .address_mode = gpu::AddressMode::Repeat});
+  if (!environment_sampler) return std::unexpected(environment_sampler.error());
+  ForwardPass pass;
+  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*layout), std::move(*pipeline),
+                                              std::move(*shadow_sampler), std::move(*environment_sampler), {}});
+  return pass;
+}
+
+Result<void> ForwardPass::add(RenderGraph& graph, std::span<const frame::DrawItem> items, vec4 clear_color) const {
+  struct Data {
+    BufferHandle uniforms;
+    TextureHandle shadow_map, environment, color, depth;
+  };
+  auto& board = graph.blackboard();
+  auto uniforms = board.get<BufferHandle>("frame_uniforms");
+  auto shadow_map = board.get<TextureHandle>("shadow_map");
+  auto environment = board.get<TextureHandle>("environment");
+  if (!uniforms) return std::unexpected(uniforms.error());
+  if (!shadow_map) return std::unexpected(shadow_map.error());
+  if (!environment) return std::unexpected(environment.error());
+  auto state = state_;
+  auto& data = graph.add_pass<Data>(
+      "forward",
+      [&](PassBuilder& b, Data& d) {
+        d.uniforms = b.read(*uniforms, BufferUse::Uniform);
+        d.shadow_map = b.read(*shadow_map, TextureUse::Sampled);
+        d.environment = b.read(*environment, TextureUse::Sampled);
+        d.color = b.write(b.create_texture("scene_color", {.size = RelativeSize{1.0f}, .format = scene_color_format}),
+                          TextureUse::ColorAttachment);
+        d.depth = b.write(b.create_texture("scene_depth", {.size = RelativeSize{1.0f}, .format = scene_depth_format}),
+                          TextureUse::DepthAttachment);
+      },
+      [state, items, clear_color](const PassResources& res, const Data& d, PassContext& ctx) {
+        state->frame_groups.clear();
+        auto group = ctx.device().create_bind_group(
+            {.label = "forward",
+             .layout = &state->bind_layout,
+             .entries = {gpu::bind(0, res.buffer(d.uniforms)), gpu::bind(1, res.view(d.shadow_map), &state->shadow_sampler),
+                         gpu::bind(2, res.view(d.environment), &state->environment_sampler)}});
+        if (!group) return ctx.encoder().report_error(group.error());
+        state->frame_groups.push_back(std::move(*group));
+        auto pass = ctx.encoder().begin_render_pass(
+            {.label = "forward",
+             .color_attachments = {{.view = &res.view(d.color), .clear_color = clear_color}},
+             .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth)}});
+        pass.set_pipeline(state->pipeline);
+        pass.set_bind_group(0, state->frame_groups.back());
+        for (const auto& item : items) {
+          const auto& m = item.material;
+          pass.push(DrawConstants{item.model, vec4(m.base_color, m.metallic), vec4(m.roughness, m.emissive)});
+          pass.set_vertex_buffer(0, item.mesh->vertices);
+          pass.set_index_buffer(item.mesh->indices);
+          pass.draw_indexed(item.mesh->index_count);
+        }
+        pass.end();
+      });
+  board.put("scene_color", data.color);
+  board.put("scene_depth", data.depth);
+  return {};
+}
+
+}  // namespace weft::passes

@@ -1,0 +1,78 @@
+module;
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <expected>
+#include <span>
+#include <glm/gtc/matrix_transform.hpp>
+#include "weft_pass_shadow_shaders.h"
+module weft.pass.shadow;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+
+namespace weft::passes {
+
+mat4 fit_light_view_projection(vec3 towards_light, vec3 lo, vec3 hi) {
+  const vec3 center = 0.5f * (lo + hi);
+  const float radius = std::max(0.5f * glm::length(hi - lo), 1e-4f);
+  const vec3 dir = glm::normalize(towards_light);
+  const vec3 up = std::abs(dir.y) > 0.99f ? vec3(1, 0, 0) : vec3(0, 1, 0);
+  const mat4 view = glm::lookAtRH(center + dir * radius * 2.0f, center, up);
+  // A bounding sphere keeps the map stable as the light turns; Vulkan depth 0..1.
+  mat4 projection = glm::orthoRH_ZO(-radius, radius, -radius, radius, radius * 0.5f, radius * 3.5f);
+  projection[1][1] *= -1.0f;
+  return projection * view;
+}
+
+Result<ShadowPass> ShadowPass::create(gpu::Device& device, const ShadowSettings& settings) {
+  if (settings.resolution < 16 || settings.resolution > device.adapter_info().limits.max_texture_dimension_2d)
+    return fail(ErrorKind::InvalidArgument, "shadow pass: resolution {} outside [16, {}]", settings.resolution,
+                device.adapter_info().limits.max_texture_dimension_2d);
+  auto vs = device.create_shader_module({.label = "shadow.vert", .stage = gpu::ShaderStage::Vertex, .spirv = shaders::shadow_vert()});
+  if (!vs) return std::unexpected(vs.error());
+  auto layout = device.create_pipeline_layout({.label = "shadow", .push_constant_size = sizeof(mat4)});
+  if (!layout) return std::unexpected(layout.error());
+  auto pipeline = device.create_render_pipeline(
+      {.label = "shadow",
+       .layout = &*layout,
+       .vertex = &*vs,
+       .vertex_buffers = {frame::vertex_layout()},
+       .cull_mode = gpu::CullMode::None,  // thin and open meshes cast shadows from both sides
+       .depth_stencil = gpu::DepthStencilState{.format = gpu::Format::Depth32Float,
+                                               .depth_bias_constant = settings.depth_bias_constant,
+                                               .depth_bias_slope = settings.depth_bias_slope}});
+  if (!pipeline) return std::unexpected(pipeline.error());
+  return ShadowPass(settings, std::move(*layout), std::move(*pipeline));
+}
+
+TextureHandle ShadowPass::add(RenderGraph& graph, std::span<const frame::DrawItem> items,
+                              const mat4& light_view_projection) const {
+  struct Data {
+    TextureHandle depth;
+  };
+  const std::uint32_t n = settings_.resolution;
+  auto& data = graph.add_pass<Data>(
+      "shadow_map",
+      [&](PassBuilder& b, Data& d) {
+        d.depth = b.create_texture("shadow_map", {.size = gpu::Extent3D{n, n, 1}, .format = gpu::Format::Depth32Float});
+        d.depth = b.write(d.depth, TextureUse::DepthAttachment);
+      },
+      [this, items, light_view_projection](const PassResources& res, const Data& d, PassContext& ctx) {
+        auto pass = ctx.encoder().begin_render_pass(
+            {.label = "shadow_map", .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth)}});
+        pass.set_pipeline(pipeline_);
+        for (const auto& item : items) {
+          pass.push(light_view_projection * item.model);
+          pass.set_vertex_buffer(0, item.mesh->vertices);
+          pass.set_index_buffer(item.mesh->indices);
+          pass.draw_indexed(item.mesh->index_count);
+        }
+        pass.end();
+      });
+  graph.blackboard().put("shadow_map", data.depth);
+  return data.depth;
+}
+
+}  // namespace weft::passes

@@ -1,0 +1,81 @@
+module;
+#include <cstdint>
+#include <expected>
+#include <memory>
+#include <vector>
+#include "weft_pass_tonemap_shaders.h"
+module weft.pass.tonemap;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+
+namespace weft::passes {
+
+struct TonemapPass::State {
+  gpu::BindGroupLayout bind_layout;
+  gpu::PipelineLayout layout;
+  gpu::RenderPipeline pipeline;
+  gpu::Sampler sampler;
+  std::vector<gpu::BindGroup> frame_groups;
+};
+
+namespace {
+struct Push {
+  float exposure;
+  std::uint32_t operator_kind;
+};
+}  // namespace
+
+Result<TonemapPass> TonemapPass::create(gpu::Device& device) {
+  auto vs = device.create_shader_module({.label = "fullscreen.vert", .stage = gpu::ShaderStage::Vertex, .spirv = frame::fullscreen_vertex_spirv()});
+  if (!vs) return std::unexpected(vs.error());
+  auto fs = device.create_shader_module({.label = "tonemap.frag", .stage = gpu::ShaderStage::Fragment, .spirv = shaders::tonemap_frag()});
+  if (!fs) return std::unexpected(fs.error());
+  auto bind_layout = device.create_bind_group_layout(
+      {.label = "tonemap", .entries = {{0, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}});
+  if (!bind_layout) return std::unexpected(bind_layout.error());
+  auto layout = device.create_pipeline_layout({.label = "tonemap", .bind_group_layouts = {&*bind_layout}, .push_constant_size = sizeof(Push)});
+  if (!layout) return std::unexpected(layout.error());
+  auto pipeline = device.create_render_pipeline({.label = "tonemap", .layout = &*layout, .vertex = &*vs, .fragment = &*fs,
+                                                 .color_targets = {{output_format}}});
+  if (!pipeline) return std::unexpected(pipeline.error());
+  auto sampler = device.create_sampler({.label = "tonemap", .mag_filter = gpu::FilterMode::Nearest, .min_filter = gpu::FilterMode::Nearest});
+  if (!sampler) return std::unexpected(sampler.error());
+  TonemapPass pass;
+  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*layout), std::move(*pipeline),
+                                              std::move(*sampler), {}});
+  return pass;
+}
+
+Result<TextureHandle> TonemapPass::add(RenderGraph& graph, TextureHandle output, const TonemapSettings& settings) const {
+  struct Data {
+    TextureHandle color, output;
+  };
+  auto color = graph.blackboard().get<TextureHandle>("scene_color");
+  if (!color) return std::unexpected(color.error());
+  auto state = state_;
+  const Push push{settings.exposure, std::uint32_t(settings.tone_operator)};
+  auto& data = graph.add_pass<Data>(
+      "tonemap",
+      [&](PassBuilder& b, Data& d) {
+        d.color = b.read(*color, TextureUse::Sampled);
+        d.output = b.write(output, TextureUse::ColorAttachment);
+      },
+      [state, push](const PassResources& res, const Data& d, PassContext& ctx) {
+        state->frame_groups.clear();
+        auto group = ctx.device().create_bind_group(
+            {.label = "tonemap", .layout = &state->bind_layout, .entries = {gpu::bind(0, res.view(d.color), &state->sampler)}});
+        if (!group) return ctx.encoder().report_error(group.error());
+        state->frame_groups.push_back(std::move(*group));
+        auto pass = ctx.encoder().begin_render_pass({.label = "tonemap", .color_attachments = {{.view = &res.view(d.output), .load = gpu::LoadOp::DontCare}}});
+        pass.set_pipeline(state->pipeline);
+        pass.set_bind_group(0, state->frame_groups.back());
+        pass.push(push);
+        pass.draw(3);
+        pass.end();
+      });
+  return data.output;
+}
+
+}  // namespace weft::passes

@@ -1,0 +1,54 @@
+// Shared by weft's passes: the per-frame uniforms (weft::frame::FrameUniforms, std140),
+// the vertex layout (weft::frame::Vertex), and small colour and mapping helpers.
+#ifndef WEFT_FRAME_GLSL
+#define WEFT_FRAME_GLSL
+
+const float PI = 3.14159265358979323846;
+
+struct FrameData {
+  mat4 view;
+  mat4 projection;
+  mat4 view_projection;
+  mat4 inverse_view_projection;
+  mat4 light_view_projection;
+  vec4 camera_position;
+  vec4 light_direction;  // xyz towards the key light
+  vec4 light_color;      // rgb * intensity
+  vec4 environment;      // x intensity, y rotation (radians), z has map
+  vec4 viewport;         // w, h, 1/w, 1/h
+  vec4 irradiance_sh[9];
+};
+
+#ifdef WEFT_VERTEX_INPUTS
+layout(location = 0) in vec3 in_position;
+layout(location = 1) in float in_curvature;
+layout(location = 2) in vec3 in_normal;
+layout(location = 3) in vec4 in_tangent;
+layout(location = 4) in vec2 in_uv;
+#endif
+
+// Equirectangular mapping shared with weft::frame::irradiance_sh:
+// u = atan(z, x) / 2π + 0.5, v = acos(y) / π, after rotating by -rotation about +y.
+vec2 equirect_uv(vec3 d, float rotation) {
+  float c = cos(rotation), s = sin(rotation);
+  vec3 r = vec3(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
+  float u = atan(r.z, r.x) / (2.0 * PI) + 0.5;
+  float v = acos(clamp(r.y, -1.0, 1.0)) / PI;
+  return vec2(u, v);
+}
+
+vec3 evaluate_irradiance_sh(vec4 sh[9], vec3 n) {
+  vec3 e = sh[0].rgb * 0.282095
+         + sh[1].rgb * 0.488603 * n.y + sh[2].rgb * 0.488603 * n.z + sh[3].rgb * 0.488603 * n.x
+         + sh[4].rgb * 1.092548 * n.x * n.y + sh[5].rgb * 1.092548 * n.y * n.z
+         + sh[6].rgb * 0.315392 * (3.0 * n.z * n.z - 1.0) + sh[7].rgb * 1.092548 * n.x * n.z
+         + sh[8].rgb * 0.546274 * (n.x * n.x - n.y * n.y);
+  return max(e, vec3(0.0));
+}
+
+vec3 linear_to_srgb(vec3 c) {
+  c = clamp(c, 0.0, 1.0);
+  return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
+}
+
+#endif
