@@ -23,6 +23,7 @@ bool needs_barrier(gpu::Access before, gpu::Access after, bool texture) {
 void plan_barriers(const GraphData& graph, CompiledState& state) {
   const std::uint32_t R = state.resource_count;
   std::vector<gpu::Access> current(R, gpu::Access::Undefined);
+  std::vector<std::uint8_t> released(R, 0);  // a texture moves to its release state only once
   for (std::uint32_t r = 0; r < R; ++r)
     if (graph.resources[r].imported) current[r] = graph.resources[r].initial_state;
 
@@ -43,8 +44,12 @@ void plan_barriers(const GraphData& graph, CompiledState& state) {
         if (first == last && texture) state.barriers.push_back(PlannedBarrier{r, gpu::Access::Undefined, a.access});
         for (std::uint32_t t = first; t < last; ++t) {
           const std::uint32_t occupant = state.takeovers[t];
-          state.barriers.push_back(PlannedBarrier{r, gpu::Access::Undefined, a.access, occupant, current[occupant]});
-          if (texture) current[occupant] = released_state;
+          const gpu::Access occupant_after =
+              texture && !released[occupant] ? release_state(current[occupant]) : current[occupant];
+          state.barriers.push_back(
+              PlannedBarrier{r, gpu::Access::Undefined, a.access, occupant, current[occupant], occupant_after});
+          released[occupant] = 1;
+          current[occupant] = occupant_after;
         }
       } else if (needs_barrier(current[r], a.access, texture)) {
         state.barriers.push_back(PlannedBarrier{r, current[r], a.access});

@@ -40,6 +40,23 @@ gpu::BufferUsage buffer_usage_of(std::uint16_t uses) {
   return usage;
 }
 
+// The usage a texture needs to be put in `state` (an output's final state).
+gpu::TextureUsage usage_for_state(gpu::Access state) {
+  using A = gpu::Access;
+  using U = gpu::TextureUsage;
+  switch (state) {
+    case A::CopySrc: return U::CopySrc;
+    case A::CopyDst: return U::CopyDst;
+    case A::ShaderRead: return U::Sampled;
+    case A::StorageRead:
+    case A::StorageWrite: return U::Storage;
+    case A::ColorAttachment: return U::ColorAttachment;
+    case A::DepthAttachment:
+    case A::DepthRead: return U::DepthAttachment;
+    default: return U::None;
+  }
+}
+
 struct Edge {
   std::uint32_t to;
   std::uint32_t resource;  // the resource that orders the two passes (named in cycle errors)
@@ -409,6 +426,28 @@ class Scheduler {
       if (node.type == ResourceType::Texture) {
         info.texture_usage = info.texture_usage | texture_usage_of(uses);
         if (uses == 0) continue;
+        const gpu::TextureUsage final_usage = usage_for_state(s_.resource_final_state[r]);
+        if (!node.imported) {
+          info.texture_usage = info.texture_usage | final_usage;
+          // weft.gpu gives every texture a view, which Vulkan allows only with a usage a view
+          // can serve; a copy-only transient gets Sampled.
+          using U = gpu::TextureUsage;
+          if (!gpu::any(info.texture_usage & (U::Sampled | U::Storage | U::ColorAttachment | U::DepthAttachment)))
+            info.texture_usage = info.texture_usage | U::Sampled;
+        } else if (node.imported_texture_usage != gpu::TextureUsage::None && gpu::any(final_usage) &&
+                   !gpu::has(node.imported_texture_usage, final_usage)) {
+          error(GraphErrorKind::MissingUsage,
+                weft::format("output texture '{}' is to be left in state {}, but it was created without {} usage "
+                             "(it has {})",
+                             node.name, gpu::to_string(s_.resource_final_state[r]), gpu::to_string(final_usage),
+                             gpu::to_string(node.imported_texture_usage)),
+                {}, {resource_name(r)});
+        }
+        // A storage texture whose memory is taken over leaves GENERAL through a layout that
+        // needs Sampled (see release_state()).
+        if (!node.imported && gpu::has(info.texture_usage, gpu::TextureUsage::Storage) &&
+            gpu::forbidden_usages(info.format, gpu::TextureUsage::Sampled).empty())
+          info.texture_usage = info.texture_usage | gpu::TextureUsage::Sampled;
         if (std::string forbidden = gpu::forbidden_usages(info.format, texture_usage_of(uses)); !forbidden.empty()) {
           for (unsigned bit = 0; bit < 8; ++bit) {
             if (!(uses & (1u << bit))) continue;

@@ -21,13 +21,13 @@ namespace weft::detail {
 
 // A texture taking over memory must start from an undefined layout yet wait for the
 // previous occupant's last access. gpu::TextureBarrier's `before` gives both the old layout
-// and the stages to wait for, and Undefined waits for nothing. So the takeover is recorded
-// in two barrier batches: (1) the occupant moves from its last state to released_state
-// (GENERAL, shader stages), (2) the new texture moves from UniformRead — shader stages, the
-// UNDEFINED layout — to its first state. Batch 2's source stages chain with batch 1's
-// destination stages, so the new layout transition happens after everything the occupant
-// did. (With a `TextureBarrier` that could say "discard contents, but wait for access X",
-// batch 1 would be unnecessary.)
+// and the stages to wait for, and Undefined waits for nothing. So a takeover is recorded in
+// two barrier calls: (1) the first time its memory is taken over, the occupant moves from
+// its last state to release_state() — a layout change, ending in shader stages; (2) the new
+// texture moves from UniformRead — shader stages, the UNDEFINED layout — to its first state.
+// (2)'s source stages chain with (1)'s destination stages, so the new layout transition
+// happens after everything the occupant did. A TextureBarrier that could say "discard the
+// contents, but wait for access X" would make (1) unnecessary.
 inline constexpr gpu::Access takeover_wait_state = gpu::Access::UniformRead;
 
 struct Realized {
@@ -50,6 +50,7 @@ struct Executor {
   gpu::CommandEncoder* encoder = nullptr;
   std::vector<std::string> errors;
   std::vector<std::string> error_passes, error_resources;
+  std::vector<std::unique_ptr<KeptObject>> kept;  // released after the frame's wait
   std::vector<gpu::TextureBarrier> release_batch, texture_batch;
   std::vector<gpu::BufferBarrier> buffer_batch;
 
@@ -87,22 +88,24 @@ struct Executor {
     error_resources.emplace_back(name);
   }
 
+  // An undeclared access is recorded (execute() fails after this pass) but still answered,
+  // with the real resource when it exists, so the callback can finish normally.
   const gpu::Texture& texture(std::uint32_t pass, TextureHandle h) {
-    if (h.index >= state.resource_count || graph.resources[h.index].type != ResourceType::Texture ||
-        !declared(pass, h.index)) {
+    if (h.index >= state.resource_count || graph.resources[h.index].type != ResourceType::Texture) {
       undeclared(pass, h.index, ResourceType::Texture, h.version);
       return *state.realized->fallback_texture;
     }
+    if (!declared(pass, h.index)) undeclared(pass, h.index, ResourceType::Texture, h.version);
     const gpu::Texture* t = texture_of(h.index);
     return t ? *t : *state.realized->fallback_texture;
   }
 
   const gpu::Buffer& buffer(std::uint32_t pass, BufferHandle h) {
-    if (h.index >= state.resource_count || graph.resources[h.index].type != ResourceType::Buffer ||
-        !declared(pass, h.index)) {
+    if (h.index >= state.resource_count || graph.resources[h.index].type != ResourceType::Buffer) {
       undeclared(pass, h.index, ResourceType::Buffer, h.version);
       return *state.realized->fallback_buffer;
     }
+    if (!declared(pass, h.index)) undeclared(pass, h.index, ResourceType::Buffer, h.version);
     const gpu::Buffer* b = buffer_of(h.index);
     return b ? *b : *state.realized->fallback_buffer;
   }
@@ -112,6 +115,7 @@ struct Executor {
     if (!pass.execute.invoke) return;
     PassResources resources(this, p);
     PassContext ctx;
+    ctx.executor_ = this;
     ctx.encoder_ = encoder;
     ctx.device_ = &device;
     ctx.pass_name_ = pass.name;
@@ -128,9 +132,8 @@ struct Executor {
       if (b.previous_occupant != invalid_index && is_texture) {
         const gpu::Texture* occupant = texture_of(b.previous_occupant);
         const gpu::Texture* taker = texture_of(b.resource);
-        if (std::none_of(release_batch.begin(), release_batch.end(),
-                         [&](const gpu::TextureBarrier& x) { return x.texture == occupant; }))
-          release_batch.push_back(gpu::TextureBarrier{occupant, b.occupant_before, released_state});
+        if (b.occupant_before != b.occupant_after)
+          release_batch.push_back(gpu::TextureBarrier{occupant, b.occupant_before, b.occupant_after});
         if (std::none_of(texture_batch.begin(), texture_batch.end(),
                          [&](const gpu::TextureBarrier& x) { return x.texture == taker; }))
           texture_batch.push_back(gpu::TextureBarrier{taker, takeover_wait_state, b.after});
@@ -216,6 +219,10 @@ double elapsed_us(std::chrono::steady_clock::time_point since) {
 }  // namespace weft::detail
 
 namespace weft {
+
+void PassContext::keep_alive(std::unique_ptr<detail::KeptObject> object) const {
+  executor_->kept.push_back(std::move(object));
+}
 
 const gpu::Texture& PassResources::texture(TextureHandle handle) const { return executor_->texture(pass_, handle); }
 const gpu::TextureView& PassResources::view(TextureHandle handle) const { return texture(handle).view(); }

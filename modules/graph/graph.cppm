@@ -217,13 +217,16 @@ struct ResourceInfo {
 
 // A barrier the graph records before a pass (or at the end of the frame for outputs).
 // previous_occupant is set when `resource` takes over memory another transient used earlier
-// in the frame: the barrier then also waits for that occupant's last access.
+// in the frame: `resource` starts from Undefined, and the previous occupant is moved from
+// occupant_before to occupant_after first (a layout change the first time its memory is
+// taken over, nothing after that), so the new resource's transition waits for it.
 struct PlannedBarrier {
   std::uint32_t resource = invalid_index;
   gpu::Access before = gpu::Access::Undefined;
   gpu::Access after = gpu::Access::Undefined;
   std::uint32_t previous_occupant = invalid_index;
   gpu::Access occupant_before = gpu::Access::Undefined;
+  gpu::Access occupant_after = gpu::Access::Undefined;
 };
 
 struct MemoryHeap {
@@ -257,6 +260,16 @@ struct ErasedExecute {
   void* callable = nullptr;
   void (*invoke)(void* callable, const void* data, const PassResources&, PassContext&) = nullptr;
   void (*destroy)(void* callable, void* data) = nullptr;
+};
+
+// Per-frame objects a pass hands to PassContext::keep().
+struct KeptObject {
+  virtual ~KeptObject() = default;
+};
+template <class T>
+struct Kept final : KeptObject {
+  explicit Kept(T&& v) : value(std::move(v)) {}
+  T value;
 };
 
 void* arena_allocate(GraphData& graph, std::size_t size, std::size_t alignment);
@@ -381,8 +394,21 @@ class PassContext {
   [[nodiscard]] std::string_view pass_name() const { return pass_name_; }
   [[nodiscard]] std::uint64_t frame_index() const { return frame_index_; }
 
+  // Keeps an object made for this frame (typically a bind group over this frame's
+  // resources) alive until the frame's commands have finished on the GPU.
+  template <class T>
+    requires(!std::is_lvalue_reference_v<T>)
+  T& keep(T&& object) const {
+    auto holder = std::make_unique<detail::Kept<T>>(std::move(object));
+    T& value = holder->value;
+    keep_alive(std::move(holder));
+    return value;
+  }
+
  private:
   PassContext() = default;
+  void keep_alive(std::unique_ptr<detail::KeptObject> object) const;
+  detail::Executor* executor_ = nullptr;
   gpu::CommandEncoder* encoder_ = nullptr;
   gpu::Device* device_ = nullptr;
   std::string_view pass_name_;
@@ -635,10 +661,18 @@ struct CompiledState {
   std::uint64_t frame_index = 0;
 };
 
-// The state a texture is left in once another resource took over (part of) its memory: the
-// release barrier moves it to GENERAL (StorageRead), a layout every image may take, so that
-// later takeovers of the rest of its memory wait on that barrier without another transition.
-inline constexpr gpu::Access released_state = gpu::Access::StorageRead;
+// The state a texture is moved to when another transient first takes over (part of) its
+// memory: always a different image layout than its last one, with shader stages. The layout
+// change makes the release a write that the synchronization validation (and the driver)
+// orders the new resource's transition after; the shader stages chain with the stages the
+// new resource's barrier waits for (see execute.cpp). GENERAL (StorageRead) fits every image;
+// an image last in GENERAL goes to SHADER_READ_ONLY (ShaderRead), which is why transient
+// storage textures also get Sampled usage.
+constexpr gpu::Access release_state(gpu::Access last) {
+  const bool general = last == gpu::Access::StorageRead || last == gpu::Access::StorageWrite ||
+                       last == gpu::Access::HostRead || last == gpu::Access::HostWrite;
+  return general ? gpu::Access::ShaderRead : gpu::Access::StorageRead;
+}
 
 // Compile stages (one file each), run in this order by RenderGraph::compile.
 void validate_and_schedule(const GraphData& graph, CompiledState& state, std::vector<GraphError>& errors);

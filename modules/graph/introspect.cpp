@@ -139,8 +139,10 @@ std::string CompiledGraph::dump() const {
     std::string line = weft::format("      barrier {}: {} -> {}", resource(b.resource), gpu::to_string(b.before),
                                    gpu::to_string(b.after));
     if (b.previous_occupant != invalid_index)
-      line += weft::format(" (takes over memory of {}, last {})", resource(b.previous_occupant),
-                          gpu::to_string(b.occupant_before));
+      line += b.occupant_before == b.occupant_after
+                  ? weft::format(" (takes over memory of {})", resource(b.previous_occupant))
+                  : weft::format(" (takes over memory of {}, moved {} -> {})", resource(b.previous_occupant),
+                                 gpu::to_string(b.occupant_before), gpu::to_string(b.occupant_after));
     return line + "\n";
   };
   for (std::uint32_t pos = 0; pos < s.order.size(); ++pos) {

@@ -166,6 +166,12 @@ Model build(RenderGraph& graph, std::uint32_t seed) {
   return model;
 }
 
+// The test's own statement of the release rule: a different layout, with shader stages.
+gpu::Access release_state_of(gpu::Access last) {
+  using A = gpu::Access;
+  return last == A::StorageRead || last == A::StorageWrite ? A::ShaderRead : A::StorageRead;
+}
+
 bool needs_barrier(gpu::Access before, gpu::Access after) {
   return before != after || gpu::is_write(before) || gpu::is_write(after);
 }
@@ -234,9 +240,18 @@ void check(const Model& m, const CompiledGraph& g, std::uint32_t seed) {
   // Barriers: walk each resource's accesses in order; every hazard has its barrier, equal
   // reads have none, and a resource taking over memory waits on the resources it replaces.
   std::map<std::uint32_t, std::vector<std::uint32_t>> takeovers;  // resource -> previous occupants
+  std::map<std::uint32_t, int> releases;  // texture -> times it was moved out of its last state
   for (std::uint32_t pos = 0; pos < g.order().size(); ++pos)
-    for (const PlannedBarrier& b : g.barriers_before(g.order()[pos]))
-      if (b.previous_occupant != invalid_index) takeovers[b.resource].push_back(b.previous_occupant);
+    for (const PlannedBarrier& b : g.barriers_before(g.order()[pos])) {
+      if (b.previous_occupant == invalid_index) continue;
+      takeovers[b.resource].push_back(b.previous_occupant);
+      CHECK(resources[b.previous_occupant].last_use < pos);
+      if (m.textures.count(b.previous_occupant) && b.occupant_before != b.occupant_after) {
+        ++releases[b.previous_occupant];
+        CHECK(b.occupant_after == release_state_of(b.occupant_before));
+      }
+    }
+  for (auto [occupant, count] : releases) CHECK_MESSAGE(count == 1, "texture " << occupant << " released " << count << " times");
   std::map<std::uint32_t, gpu::Access> state;
   for (std::uint32_t pos = 0; pos < g.order().size(); ++pos) {
     const std::uint32_t p = g.order()[pos];

@@ -877,6 +877,6 @@ TEST_SUITE("graph introspection") {
     const std::string dump = compiled->dump();
     CHECK(contains(dump, "render graph 'golden': 5 passes (1 culled), 5 resources"));
     CHECK(contains(dump, "culled: debug"));
-    CHECK(contains(dump, "barrier t2: undefined -> color-attachment (takes over memory of t0, last shader-read)"));
+    CHECK(contains(dump, "barrier t2: undefined -> color-attachment (takes over memory of t0, moved shader-read -> storage-read)"));
   }
 }

@@ -1,0 +1,414 @@
+// weft-bench-graph: how the render graph's CPU cost grows with the number of passes, how much
+// transient memory aliasing saves on a realistic frame, and (with a Vulkan device) the
+// per-frame CPU overhead of executing through the graph against recording by hand.
+//
+//   build-release/bin/weft-bench-graph [--runs N] [--no-device]
+//
+// Prints markdown tables. Times are medians over --runs runs (default 15) of
+// std::chrono::steady_clock.
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <functional>
+#include <optional>
+#include <random>
+#include <span>
+#include <string>
+#include <vector>
+import weft.core;
+import weft.gpu;
+import weft.graph;
+
+using namespace weft;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+double us_since(Clock::time_point t) { return std::chrono::duration<double, std::micro>(Clock::now() - t).count(); }
+
+// Pass names are made before timing: the graph copies them, the benchmark should not
+// measure std::to_string.
+std::vector<std::string> names(const char* prefix, int n) {
+  std::vector<std::string> out;
+  out.reserve(std::size_t(n));
+  for (int i = 0; i < n; ++i) out.push_back(prefix + std::to_string(i));
+  return out;
+}
+
+struct Timing {
+  double setup_us = 0, compile_us = 0, total_us = 0;
+};
+
+// A chain: each pass samples the previous pass's texture and renders a new one.
+Timing time_chain(int n, int runs, const std::vector<std::string>& pass_names, const std::vector<std::string>& tex_names) {
+  std::vector<double> setup, compile, total;
+  const gpu::TextureDescriptor output_desc{.label = "output", .size = {1920, 1080, 1}, .format = gpu::Format::RGBA8Unorm,
+                                           .usage = gpu::TextureUsage::ColorAttachment};
+  for (int run = 0; run < runs; ++run) {
+    const auto t0 = Clock::now();
+    RenderGraph graph("chain");
+    TextureHandle previous;
+    for (int i = 0; i < n; ++i) {
+      graph.add_pass(pass_names[std::size_t(i)], [&](PassBuilder& b) {
+        if (previous.valid()) b.read(previous, TextureUse::Sampled);
+        previous = b.write(b.create_texture(tex_names[std::size_t(i)], {.size = RelativeSize{1.0f}}),
+                           TextureUse::ColorAttachment);
+      });
+    }
+    auto output = graph.import_texture("output", output_desc, gpu::Access::Undefined);
+    graph.add_pass("present", [&](PassBuilder& b) {
+      b.read(previous, TextureUse::Sampled);
+      output = b.write(output, TextureUse::ColorAttachment);
+    });
+    graph.mark_output(output);
+    const auto t1 = Clock::now();
+    auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
+    const auto t2 = Clock::now();
+    if (!compiled) {
+      std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str());
+      std::exit(1);
+    }
+    setup.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    compile.push_back(std::chrono::duration<double, std::micro>(t2 - t1).count());
+    total.push_back(std::chrono::duration<double, std::micro>(t2 - t0).count());
+  }
+  return {median(setup), median(compile), median(total)};
+}
+
+// A random DAG: each pass reads up to three earlier results (fixed seed, chosen before
+// timing), writes one new texture; a tenth of the passes are side effects, so some chains
+// reach nothing and are culled.
+struct DagShape {
+  std::vector<std::vector<int>> reads;
+  std::vector<bool> side_effect;
+};
+
+DagShape make_dag(int n, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  DagShape shape;
+  shape.reads.resize(std::size_t(n));
+  shape.side_effect.resize(std::size_t(n));
+  for (int i = 0; i < n; ++i) {
+    const int k = i == 0 ? 0 : std::uniform_int_distribution<int>(1, 3)(rng);
+    for (int j = 0; j < k; ++j) {
+      // Mostly recent passes, as in a real frame.
+      const int back = std::min(i, 1 + int(std::exponential_distribution<double>(0.2)(rng)));
+      const int source = i - back;
+      if (std::find(shape.reads[std::size_t(i)].begin(), shape.reads[std::size_t(i)].end(), source) ==
+          shape.reads[std::size_t(i)].end())
+        shape.reads[std::size_t(i)].push_back(source);
+    }
+    shape.side_effect[std::size_t(i)] = std::uniform_int_distribution<int>(0, 9)(rng) == 0;
+  }
+  shape.side_effect.back() = true;
+  return shape;
+}
+
+Timing time_dag(const DagShape& shape, int runs, const std::vector<std::string>& pass_names,
+                const std::vector<std::string>& tex_names, std::size_t* culled = nullptr) {
+  const int n = int(shape.reads.size());
+  std::vector<double> setup, compile, total;
+  std::vector<TextureHandle> results(std::size_t(n));
+  for (int run = 0; run < runs; ++run) {
+    const auto t0 = Clock::now();
+    RenderGraph graph("dag");
+    for (int i = 0; i < n; ++i) {
+      graph.add_pass(pass_names[std::size_t(i)], [&](PassBuilder& b) {
+        for (int source : shape.reads[std::size_t(i)]) b.read(results[std::size_t(source)], TextureUse::Sampled);
+        results[std::size_t(i)] = b.write(
+            b.create_texture(tex_names[std::size_t(i)], {.size = RelativeSize{(i % 3) ? 1.0f : 0.5f}, .format = gpu::Format::RGBA16Float}),
+            TextureUse::StorageWrite);
+        if (shape.side_effect[std::size_t(i)]) b.side_effect();
+      });
+    }
+    const auto t1 = Clock::now();
+    auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
+    const auto t2 = Clock::now();
+    if (!compiled) {
+      std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str());
+      std::exit(1);
+    }
+    if (culled) *culled = std::size_t(n) - compiled->order().size();
+    setup.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    compile.push_back(std::chrono::duration<double, std::micro>(t2 - t1).count());
+    total.push_back(std::chrono::duration<double, std::micro>(t2 - t0).count());
+  }
+  return {median(setup), median(compile), median(total)};
+}
+
+// A deferred frame: depth prepass, shadow map, gbuffer, SSAO, lighting, a five-level bloom
+// chain (down and up), tonemap into the imported output.
+void build_realistic_frame(RenderGraph& graph) {
+  using F = gpu::Format;
+  auto output = graph.import_texture("output",
+                                     gpu::TextureDescriptor{.label = "output", .size = {1920, 1080, 1}, .format = F::RGBA8Unorm,
+                                                            .usage = gpu::TextureUsage::ColorAttachment},
+                                     gpu::Access::Undefined);
+  TextureHandle depth, shadow, albedo, normal, material, ao, hdr;
+  graph.add_pass("depth_prepass", [&](PassBuilder& b) {
+    depth = b.write(b.create_texture("depth", {.size = RelativeSize{1.0f}, .format = F::Depth32Float}),
+                    TextureUse::DepthAttachment);
+  });
+  graph.add_pass("shadow_map", [&](PassBuilder& b) {
+    shadow = b.write(b.create_texture("shadow_map", {.size = gpu::Extent3D{2048, 2048, 1}, .format = F::Depth32Float}),
+                     TextureUse::DepthAttachment);
+  });
+  graph.add_pass("gbuffer", [&](PassBuilder& b) {
+    depth = b.write(depth, TextureUse::DepthAttachment);
+    albedo = b.write(b.create_texture("albedo", {.size = RelativeSize{1.0f}, .format = F::RGBA8Unorm}), TextureUse::ColorAttachment);
+    normal = b.write(b.create_texture("normal", {.size = RelativeSize{1.0f}, .format = F::RGBA16Float}), TextureUse::ColorAttachment);
+    material = b.write(b.create_texture("material", {.size = RelativeSize{1.0f}, .format = F::RGBA8Unorm}), TextureUse::ColorAttachment);
+  });
+  graph.add_pass("ssao", [&](PassBuilder& b) {
+    b.read(depth, TextureUse::Sampled);
+    b.read(normal, TextureUse::Sampled);
+    ao = b.write(b.create_texture("ao", {.size = RelativeSize{0.5f}, .format = F::R8Unorm}), TextureUse::StorageWrite);
+  });
+  graph.add_pass("lighting", [&](PassBuilder& b) {
+    for (TextureHandle t : {albedo, normal, material, ao, shadow}) b.read(t, TextureUse::Sampled);
+    b.read(depth, TextureUse::Sampled);
+    hdr = b.write(b.create_texture("hdr", {.size = RelativeSize{1.0f}, .format = F::RGBA16Float}), TextureUse::ColorAttachment);
+  });
+  std::vector<TextureHandle> down;
+  TextureHandle source = hdr;
+  float scale = 0.5f;
+  for (int level = 0; level < 5; ++level, scale *= 0.5f) {
+    graph.add_pass("bloom_down" + std::to_string(level), [&](PassBuilder& b) {
+      b.read(source, TextureUse::Sampled);
+      source = b.write(b.create_texture("bloom_down" + std::to_string(level), {.size = RelativeSize{scale}, .format = F::RGBA16Float}),
+                       TextureUse::ColorAttachment);
+    });
+    down.push_back(source);
+  }
+  scale = 1.0f / 16.0f;
+  for (int level = 3; level >= 0; --level, scale *= 2.0f) {
+    graph.add_pass("bloom_up" + std::to_string(level), [&](PassBuilder& b) {
+      b.read(source, TextureUse::Sampled);
+      b.read(down[std::size_t(level)], TextureUse::Sampled);
+      source = b.write(b.create_texture("bloom_up" + std::to_string(level), {.size = RelativeSize{scale}, .format = F::RGBA16Float}),
+                       TextureUse::ColorAttachment);
+    });
+  }
+  graph.add_pass("tonemap", [&](PassBuilder& b) {
+    b.read(hdr, TextureUse::Sampled);
+    b.read(source, TextureUse::Sampled);
+    output = b.write(output, TextureUse::ColorAttachment);
+  });
+  graph.mark_output(output);
+}
+
+std::string mib(std::uint64_t bytes) { return weft::format("{:.1f} MiB", double(bytes) / (1024.0 * 1024.0)); }
+
+// ---- per-frame CPU overhead with a device ------------------------------------------------
+
+struct ComputeKit {
+  gpu::BindGroupLayout layout;
+  gpu::PipelineLayout pipeline_layout;
+  gpu::ComputePipeline pipeline;
+};
+
+std::optional<ComputeKit> make_kit(gpu::Device& device) {
+  auto module = device.create_shader_module({.label = "bench-copy", .stage = gpu::ShaderStage::Compute, .glsl = R"(#version 460
+layout(local_size_x = 64) in;
+layout(set = 0, binding = 0) readonly buffer In { uint a[]; };
+layout(set = 0, binding = 1) writeonly buffer Out { uint b[]; };
+void main() { b[gl_GlobalInvocationID.x] = a[gl_GlobalInvocationID.x] + 1u; })"});
+  if (!module) return std::nullopt;
+  auto bgl = device.create_bind_group_layout(
+      {.label = "bench", .entries = {{0, gpu::BindingType::ReadOnlyStorageBuffer, gpu::ShaderStage::Compute},
+                                     {1, gpu::BindingType::StorageBuffer, gpu::ShaderStage::Compute}}});
+  if (!bgl) return std::nullopt;
+  auto layout = device.create_pipeline_layout({.label = "bench", .bind_group_layouts = {&*bgl}});
+  if (!layout) return std::nullopt;
+  auto pipeline = device.create_compute_pipeline({.label = "bench", .layout = &*layout, .module = &*module});
+  if (!pipeline) return std::nullopt;
+  return ComputeKit{std::move(*bgl), std::move(*layout), std::move(*pipeline)};
+}
+
+void record_step(gpu::CommandEncoder& encoder, gpu::Device& device, const ComputeKit& kit, const gpu::Buffer& in,
+                 const gpu::Buffer& out, std::vector<gpu::BindGroup>& keep) {
+  auto group = device.create_bind_group({.label = "step", .layout = &kit.layout, .entries = {gpu::bind(0, in), gpu::bind(1, out)}});
+  if (!group) std::exit(1);
+  keep.push_back(std::move(*group));
+  auto pass = encoder.begin_compute_pass("step");
+  pass.set_pipeline(kit.pipeline);
+  pass.set_bind_group(0, keep.back());
+  pass.dispatch(1);
+  pass.end();
+}
+
+void overhead_table(gpu::Device& device, int runs) {
+  auto kit = make_kit(device);
+  if (!kit) {
+    std::printf("(no compute pipeline: skipping the execute overhead table)\n");
+    return;
+  }
+  std::printf("\n### Per-frame CPU cost: graph execute vs the same commands recorded by hand\n\n");
+  std::printf("Each pass: one bind group, one 64-thread dispatch reading the previous pass's 256-byte storage "
+              "buffer; record = CPU time until the command buffer is finished; frame = record + submit + wait.\n\n");
+  std::printf("| passes | by hand: record µs | graph: record µs | overhead µs/pass | by hand: frame ms | graph: frame ms |\n");
+  std::printf("|---:|---:|---:|---:|---:|---:|\n");
+  for (int n : {10, 100, 500}) {
+    // By hand: dedicated buffers, explicit barriers.
+    std::vector<gpu::Buffer> buffers;
+    for (int i = 0; i <= n; ++i) {
+      auto b = device.create_buffer({.label = "hand", .size = 256, .usage = gpu::BufferUsage::Storage});
+      if (!b) std::exit(1);
+      buffers.push_back(std::move(*b));
+    }
+    std::vector<double> hand_record, hand_frame;
+    for (int run = 0; run < runs; ++run) {
+      std::vector<gpu::BindGroup> keep;
+      keep.reserve(std::size_t(n));
+      const auto t0 = Clock::now();
+      auto encoder = device.create_command_encoder("by-hand");
+      for (int i = 0; i < n; ++i) {
+        const gpu::BufferBarrier barriers[2] = {{&buffers[std::size_t(i)], gpu::Access::StorageWrite, gpu::Access::StorageRead},
+                                                {&buffers[std::size_t(i) + 1], gpu::Access::StorageRead, gpu::Access::StorageWrite}};
+        encoder->barrier({}, std::span(barriers, i == 0 ? 1 : 2));
+        record_step(*encoder, device, *kit, buffers[std::size_t(i)], buffers[std::size_t(i) + 1], keep);
+      }
+      auto commands = encoder->finish();
+      hand_record.push_back(us_since(t0));
+      if (!commands || !device.queue().submit(std::move(*commands)) || !device.queue().wait_idle()) std::exit(1);
+      hand_frame.push_back(us_since(t0) / 1000.0);
+    }
+
+    // Through the graph: the same passes, transient buffers, barriers derived.
+    RenderGraph graph("overhead");
+    auto first = graph.import_buffer("seed", &buffers[0], gpu::Access::StorageWrite);
+    struct Data {
+      BufferHandle in, out;
+    };
+    BufferHandle previous = first;
+    const ComputeKit& k = *kit;
+    for (int i = 0; i < n; ++i) {
+      auto& d = graph.add_pass<Data>(
+          "step" + std::to_string(i),
+          [&](PassBuilder& b, Data& data) {
+            data.in = b.read(previous, BufferUse::StorageRead);
+            data.out = b.write(b.create_buffer("b" + std::to_string(i), {.size = 256}), BufferUse::StorageWrite);
+            if (i == n - 1) b.side_effect();
+          },
+          [&k](const PassResources& res, const Data& data, PassContext& ctx) {
+            auto group = ctx.device().create_bind_group(
+                {.label = "step", .layout = &k.layout, .entries = {gpu::bind(0, res.buffer(data.in)), gpu::bind(1, res.buffer(data.out))}});
+            if (!group) std::exit(1);
+            const gpu::BindGroup& kept = ctx.keep(std::move(*group));
+            auto pass = ctx.encoder().begin_compute_pass("step");
+            pass.set_pipeline(k.pipeline);
+            pass.set_bind_group(0, kept);
+            pass.dispatch(1);
+            pass.end();
+          });
+      previous = d.out;
+    }
+    auto compiled = graph.compile({.device = &device});
+    if (!compiled) {
+      std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str());
+      std::exit(1);
+    }
+    if (!compiled->execute(device, {.timestamps = false})) std::exit(1);  // realize once
+    std::vector<double> graph_record, graph_frame;
+    for (int run = 0; run < runs; ++run) {
+      auto stats = compiled->execute(device, {.timestamps = false});
+      if (!stats) {
+        std::fprintf(stderr, "%s\n", stats.error().message.c_str());
+        std::exit(1);
+      }
+      graph_record.push_back(stats->cpu_record_total_us);
+      graph_frame.push_back(stats->cpu_frame_ms);
+    }
+    const double hr = median(hand_record), gr = median(graph_record);
+    std::printf("| %d | %.0f | %.0f | %.2f | %.2f | %.2f |\n", n, hr, gr, (gr - hr) / n, median(hand_frame),
+                median(graph_frame));
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int runs = 15;
+  bool use_device = true;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--runs") == 0 && i + 1 < argc) runs = std::max(7, std::atoi(argv[++i]));
+    else if (std::strcmp(argv[i], "--no-device") == 0) use_device = false;
+    else {
+      std::fprintf(stderr, "usage: %s [--runs N] [--no-device]\n", argv[0]);
+      return 2;
+    }
+  }
+
+  std::printf("## weft.graph benchmark\n\nSetup (declaring every pass) + compile (validate, cull, order, lifetimes, "
+              "aliasing, barriers), median of %d runs.\n\n",
+              runs);
+  std::printf("| graph | passes | setup µs | compile µs | setup+compile µs | µs/pass |\n|:--|--:|--:|--:|--:|--:|\n");
+  for (int n : {10, 100, 1000, 10000}) {
+    const auto pass_names = names("pass", n), tex_names = names("tex", n);
+    const int r = n >= 10000 ? std::max(7, runs / 2) : runs;
+    const Timing chain = time_chain(n, r, pass_names, tex_names);
+    std::printf("| chain | %d | %.1f | %.1f | %.1f | %.3f |\n", n, chain.setup_us, chain.compile_us, chain.total_us,
+                chain.total_us / n);
+  }
+  for (int n : {10, 100, 1000, 10000}) {
+    const auto pass_names = names("pass", n), tex_names = names("tex", n);
+    const int r = n >= 10000 ? std::max(7, runs / 2) : runs;
+    std::size_t culled = 0;
+    const Timing dag = time_dag(make_dag(n, 42), r, pass_names, tex_names, &culled);
+    std::printf("| random DAG (%zu culled) | %d | %.1f | %.1f | %.1f | %.3f |\n", culled, n, dag.setup_us, dag.compile_us,
+                dag.total_us, dag.total_us / n);
+  }
+
+  std::printf("\n### Transient memory of a realistic 1920x1080 frame\n\n");
+  std::printf("Depth prepass, 2048² shadow map, gbuffer (3 targets), SSAO, lighting, 5-level bloom down/up, tonemap.\n\n");
+  std::printf("| memory sizes from | without aliasing | with aliasing | saved |\n|:--|--:|--:|--:|\n");
+  {
+    RenderGraph graph("realistic");
+    build_realistic_frame(graph);
+    auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
+    if (!compiled) {
+      std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str());
+      return 1;
+    }
+    const MemoryPlan& m = compiled->memory();
+    std::printf("| estimate (texels × bytes, 64 KiB aligned) | %s | %s | %.0f%% |\n", mib(m.unaliased_bytes).c_str(),
+                mib(m.aliased_bytes).c_str(), 100.0 * (1.0 - double(m.aliased_bytes) / double(m.unaliased_bytes)));
+  }
+
+  if (!use_device) return 0;
+  auto instance = gpu::Instance::create({.application_name = "weft-bench-graph"});
+  std::optional<gpu::Adapter> adapter;
+  if (instance) {
+    if (auto a = instance->request_adapter()) adapter.emplace(std::move(*a));
+  }
+  if (!adapter) {
+    std::printf("\n(no Vulkan adapter: skipping device measurements)\n");
+    return 0;
+  }
+  auto device = adapter->request_device({.label = "bench"});
+  if (!device) {
+    std::printf("\n(no Vulkan device: %s)\n", device.error().message.c_str());
+    return 0;
+  }
+  {
+    RenderGraph graph("realistic");
+    build_realistic_frame(graph);
+    auto compiled = graph.compile({.output_extent = {1920, 1080, 1}, .device = &*device});
+    if (compiled) {
+      const MemoryPlan& m = compiled->memory();
+      std::printf("| %s (Device::memory_requirements) | %s | %s | %.0f%% |\n", adapter->info().name.c_str(),
+                  mib(m.unaliased_bytes).c_str(), mib(m.aliased_bytes).c_str(),
+                  100.0 * (1.0 - double(m.aliased_bytes) / double(m.unaliased_bytes)));
+    }
+  }
+  std::printf("\nDevice: %s (%s)\n", adapter->info().name.c_str(), adapter->info().driver.c_str());
+  overhead_table(*device, runs);
+  return 0;
+}
