@@ -1,0 +1,309 @@
+// Mesh files: OBJ/PLY/OFF/STL through OpenMesh's readers, glTF through load_gltf (merged).
+//
+// OpenMesh reads into a polygon mesh with per-corner (halfedge) UVs and normals; faces are
+// fanned into triangles here, and a vertex is split wherever its corners disagree on UV or
+// normal. OpenMesh's importer trusts the reader's vertex references (a face naming vertex
+// 9 of 4 indexes past its arrays), so weft reads through an importer that checks every
+// handle first and turns bad references into a Parse error.
+module;
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <exception>
+#include <expected>
+#include <filesystem>
+#include <new>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <unordered_map>
+#include <vector>
+#include <glm/glm.hpp>
+#include "openmesh.h"
+module weft.scene;
+import weft.core;
+
+namespace weft::scene {
+namespace {
+
+using om::PolyMesh;
+using OpenMesh::EdgeHandle;
+using OpenMesh::FaceHandle;
+using OpenMesh::HalfedgeHandle;
+using OpenMesh::VertexHandle;
+namespace omio = OpenMesh::IO;
+
+// OpenMesh's importer with every handle checked before use; counts what it refused.
+class CheckedImporter final : public omio::ImporterT<PolyMesh> {
+ public:
+  using Base = omio::ImporterT<PolyMesh>;
+  CheckedImporter(PolyMesh& mesh, std::size_t size_hint) : Base(mesh), mesh_(mesh), size_hint_(size_hint) {}
+
+  std::size_t bad_references = 0;   // faces or attributes naming a vertex/face that is not there
+  std::size_t repeated_vertex_faces = 0;
+  std::size_t short_faces = 0;      // fewer than 3 corners
+  std::size_t non_manifold_faces = 0;
+
+  VertexHandle add_vertex(const OpenMesh::Vec3f& p) override { return Base::add_vertex(p); }
+  VertexHandle add_vertex(const OpenMesh::Vec3d& p) override { return Base::add_vertex(p); }
+  VertexHandle add_vertex() override { return Base::add_vertex(); }
+
+  HalfedgeHandle add_edge(VertexHandle a, VertexHandle b) override {
+    if (!ok(a) || !ok(b)) return bad<HalfedgeHandle>();
+    return Base::add_edge(a, b);
+  }
+  FaceHandle add_face(const VHandles& corners) override {
+    if (corners.size() < 3) {
+      ++short_faces;
+      return FaceHandle();
+    }
+    for (const VertexHandle v : corners) {
+      if (!ok(v)) return bad<FaceHandle>();
+    }
+    for (std::size_t i = 0; i < corners.size(); ++i) {
+      for (std::size_t j = i + 1; j < corners.size(); ++j) {
+        if (corners[i] == corners[j]) {
+          ++repeated_vertex_faces;
+          return FaceHandle();
+        }
+      }
+    }
+    const std::size_t before = mesh_.n_vertices();
+    const FaceHandle fh = Base::add_face(corners);
+    if (mesh_.n_vertices() != before) ++non_manifold_faces;  // the importer copied its vertices
+    return fh;
+  }
+  FaceHandle add_face(HalfedgeHandle) override { return bad<FaceHandle>(); }  // OpenMesh's own format only
+
+  void add_face_texcoords(FaceHandle f, VertexHandle v, const std::vector<OpenMesh::Vec2f>& t) override {
+    if (ok(f) && ok(v)) Base::add_face_texcoords(f, v, t);
+    else bad<int>();
+  }
+  void add_face_texcoords(FaceHandle f, VertexHandle v, const std::vector<OpenMesh::Vec3f>& t) override {
+    if (ok(f) && ok(v)) Base::add_face_texcoords(f, v, t);
+    else bad<int>();
+  }
+  void set_face_texindex(FaceHandle f, int id) override {
+    if (ok(f)) Base::set_face_texindex(f, id);
+  }
+  void set_point(VertexHandle v, const OpenMesh::Vec3f& p) override { if (ok(v)) Base::set_point(v, p); else bad<int>(); }
+  void set_halfedge(VertexHandle v, HalfedgeHandle h) override { if (ok(v) && ok(h)) Base::set_halfedge(v, h); else bad<int>(); }
+  void set_normal(VertexHandle v, const OpenMesh::Vec3f& n) override { if (ok(v)) Base::set_normal(v, n); else bad<int>(); }
+  void set_normal(VertexHandle v, const OpenMesh::Vec3d& n) override { if (ok(v)) Base::set_normal(v, n); else bad<int>(); }
+  void set_color(VertexHandle v, const OpenMesh::Vec3uc& c) override { if (ok(v)) Base::set_color(v, c); }
+  void set_color(VertexHandle v, const OpenMesh::Vec4uc& c) override { if (ok(v)) Base::set_color(v, c); }
+  void set_color(VertexHandle v, const OpenMesh::Vec3f& c) override { if (ok(v)) Base::set_color(v, c); }
+  void set_color(VertexHandle v, const OpenMesh::Vec4f& c) override { if (ok(v)) Base::set_color(v, c); }
+  void set_texcoord(VertexHandle v, const OpenMesh::Vec2f& t) override { if (ok(v)) Base::set_texcoord(v, t); else bad<int>(); }
+  void set_texcoord(VertexHandle v, const OpenMesh::Vec3f& t) override { if (ok(v)) Base::set_texcoord(v, t); else bad<int>(); }
+  void set_texcoord(HalfedgeHandle h, const OpenMesh::Vec2f& t) override { if (ok(h)) Base::set_texcoord(h, t); else bad<int>(); }
+  void set_texcoord(HalfedgeHandle h, const OpenMesh::Vec3f& t) override { if (ok(h)) Base::set_texcoord(h, t); else bad<int>(); }
+  void set_status(VertexHandle v, const OpenMesh::Attributes::StatusInfo& s) override { if (ok(v)) Base::set_status(v, s); }
+  void set_status(HalfedgeHandle h, const OpenMesh::Attributes::StatusInfo& s) override { if (ok(h)) Base::set_status(h, s); }
+  void set_status(EdgeHandle e, const OpenMesh::Attributes::StatusInfo& s) override { if (ok(e)) Base::set_status(e, s); }
+  void set_status(FaceHandle f, const OpenMesh::Attributes::StatusInfo& s) override { if (ok(f)) Base::set_status(f, s); }
+  void set_next(HalfedgeHandle h, HalfedgeHandle next) override { if (ok(h) && ok(next)) Base::set_next(h, next); else bad<int>(); }
+  void set_face(HalfedgeHandle h, FaceHandle f) override { if (ok(h) && ok(f)) Base::set_face(h, f); else bad<int>(); }
+  void set_color(EdgeHandle e, const OpenMesh::Vec3uc& c) override { if (ok(e)) Base::set_color(e, c); }
+  void set_color(EdgeHandle e, const OpenMesh::Vec4uc& c) override { if (ok(e)) Base::set_color(e, c); }
+  void set_color(EdgeHandle e, const OpenMesh::Vec3f& c) override { if (ok(e)) Base::set_color(e, c); }
+  void set_color(EdgeHandle e, const OpenMesh::Vec4f& c) override { if (ok(e)) Base::set_color(e, c); }
+  void set_normal(FaceHandle f, const OpenMesh::Vec3f& n) override { if (ok(f)) Base::set_normal(f, n); }
+  void set_normal(FaceHandle f, const OpenMesh::Vec3d& n) override { if (ok(f)) Base::set_normal(f, n); }
+  void set_color(FaceHandle f, const OpenMesh::Vec3uc& c) override { if (ok(f)) Base::set_color(f, c); }
+  void set_color(FaceHandle f, const OpenMesh::Vec4uc& c) override { if (ok(f)) Base::set_color(f, c); }
+  void set_color(FaceHandle f, const OpenMesh::Vec3f& c) override { if (ok(f)) Base::set_color(f, c); }
+  void set_color(FaceHandle f, const OpenMesh::Vec4f& c) override { if (ok(f)) Base::set_color(f, c); }
+
+  // A corrupt header may claim billions of elements; reserve no more than the file could hold.
+  void reserve(unsigned int nv, unsigned int ne, unsigned int nf) override {
+    const auto cap = static_cast<unsigned int>(std::min<std::size_t>(size_hint_, 1u << 26));
+    Base::reserve(std::min(nv, cap), std::min(ne, cap), std::min(nf, cap));
+  }
+
+ private:
+  bool ok(VertexHandle v) const { return v.is_valid() && std::size_t(v.idx()) < mesh_.n_vertices(); }
+  bool ok(HalfedgeHandle h) const { return h.is_valid() && std::size_t(h.idx()) < mesh_.n_halfedges(); }
+  bool ok(EdgeHandle e) const { return e.is_valid() && std::size_t(e.idx()) < mesh_.n_edges(); }
+  bool ok(FaceHandle f) const { return f.is_valid() && std::size_t(f.idx()) < mesh_.n_faces(); }
+  template <class H>
+  H bad() {
+    ++bad_references;
+    return H();
+  }
+
+  PolyMesh& mesh_;
+  std::size_t size_hint_;
+};
+
+// One split vertex: an OpenMesh vertex with the UV and normal of one of its corners.
+struct CornerKey {
+  std::array<std::uint32_t, 6> bits;
+  bool operator==(const CornerKey&) const = default;
+};
+struct CornerKeyHash {
+  std::size_t operator()(const CornerKey& k) const {
+    std::uint64_t h = 0xcbf29ce484222325ull;
+    for (std::uint32_t b : k.bits) h = (h ^ b) * 0x100000001b3ull;
+    return static_cast<std::size_t>(h ^ (h >> 31));
+  }
+};
+
+Result<Mesh> read_with_openmesh(const std::filesystem::path& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  PolyMesh pm;
+  pm.request_vertex_normals();
+  pm.request_halfedge_normals();
+  pm.request_vertex_texcoords2D();
+  pm.request_halfedge_texcoords2D();
+  omio::Options opt = omio::Options::VertexNormal | omio::Options::VertexTexCoord | omio::Options::FaceTexCoord;
+  CheckedImporter importer(pm, ec ? std::size_t{1} << 20 : static_cast<std::size_t>(size));
+  std::vector<std::string> messages;
+  bool read_ok = false;
+  {
+    om::StreamCapture capture;
+    read_ok = omio::IOManager().read(path.string(), importer, opt);
+    messages = capture.lines();
+  }
+  for (const std::string& m : messages) log::debug(weft::format("OpenMesh ({}): {}", path.filename().string(), m));
+  if (!read_ok) {
+    std::string reason = messages.empty() ? std::string("the reader gave up") : messages.back();
+    return fail(ErrorKind::Parse, "'{}': OpenMesh could not read the file: {}", path.string(), reason);
+  }
+  if (importer.bad_references > 0) {
+    return fail(ErrorKind::Parse, "'{}': {} faces or attributes reference vertices that are not in the file (indices out of range)",
+                path.string(), importer.bad_references);
+  }
+
+  Mesh mesh;
+  mesh.name = path.stem().string();
+  if (importer.repeated_vertex_faces > 0 || importer.short_faces > 0) {
+    detail::warn(mesh.warnings, weft::format("'{}': skipped {} degenerate faces (a repeated vertex or fewer than 3)",
+                                             path.string(), importer.repeated_vertex_faces + importer.short_faces));
+  }
+  if (importer.non_manifold_faces > 0) {
+    detail::warn(mesh.warnings, weft::format("'{}': {} non-manifold faces (refused by OpenMesh) were kept with their "
+                                             "own copies of their vertices",
+                                             path.string(), importer.non_manifold_faces));
+  }
+
+  const bool has_normals = opt.vertex_has_normal();
+  const bool corner_uvs = opt.face_has_texcoord();
+  const bool vertex_uvs = !corner_uvs && opt.vertex_has_texcoord();
+  std::unordered_map<CornerKey, std::uint32_t, CornerKeyHash> split;
+  split.reserve(pm.n_vertices() * 2);
+  std::vector<std::uint32_t> polygon;
+  for (const auto fh : pm.faces()) {
+    polygon.clear();
+    for (const auto heh : pm.fh_range(fh)) {
+      const auto vh = pm.to_vertex_handle(heh);
+      vec2 uv(0.0f);
+      if (corner_uvs) {
+        const auto t = pm.texcoord2D(heh);
+        uv = vec2(t[0], t[1]);
+      } else if (vertex_uvs) {
+        const auto t = pm.texcoord2D(vh);
+        uv = vec2(t[0], t[1]);
+      }
+      vec3 normal(0.0f);
+      if (has_normals) {
+        auto nrm = pm.normal(heh);  // the corner's own normal (OBJ), else the vertex's
+        if (nrm.sqrnorm() == 0.0f) nrm = pm.normal(vh);
+        normal = vec3(nrm[0], nrm[1], nrm[2]);
+      }
+      const CornerKey key{{static_cast<std::uint32_t>(vh.idx()), std::bit_cast<std::uint32_t>(uv.x),
+                           std::bit_cast<std::uint32_t>(uv.y), std::bit_cast<std::uint32_t>(normal.x),
+                           std::bit_cast<std::uint32_t>(normal.y), std::bit_cast<std::uint32_t>(normal.z)}};
+      auto [it, inserted] = split.try_emplace(key, static_cast<std::uint32_t>(mesh.positions.size()));
+      if (inserted) {
+        const auto p = pm.point(vh);
+        mesh.positions.emplace_back(p[0], p[1], p[2]);
+        if (has_normals) mesh.normals.push_back(normal);
+        if (corner_uvs || vertex_uvs) mesh.uvs.push_back(uv);
+      }
+      polygon.push_back(it->second);
+    }
+    for (std::size_t i = 1; i + 1 < polygon.size(); ++i) {
+      mesh.indices.insert(mesh.indices.end(), {polygon[0], polygon[i], polygon[i + 1]});
+    }
+  }
+  return mesh;
+}
+
+// Every instance of every glTF mesh, moved to world space, as one mesh.
+Result<Mesh> merge_gltf(const std::filesystem::path& path) {
+  auto scene = detail::read_gltf(path);
+  if (!scene) return std::unexpected(scene.error());
+  Mesh merged;
+  merged.name = path.stem().string();
+  merged.warnings = scene->warnings;
+  bool any_uvs = false, all_normals = true, all_tangents = true;
+  for (const Object& inst : scene->instances) {
+    const Mesh& m = scene->meshes[inst.mesh];
+    any_uvs = any_uvs || m.has_uvs();
+    all_normals = all_normals && !m.normals.empty();
+    all_tangents = all_tangents && !m.tangents.empty();
+  }
+  for (const Object& inst : scene->instances) {
+    const Mesh& m = scene->meshes[inst.mesh];
+    const auto base = static_cast<std::uint32_t>(merged.positions.size());
+    const mat3 linear(inst.transform);
+    const mat3 normal_matrix = glm::transpose(glm::inverse(linear));
+    const float handedness = glm::determinant(linear) < 0.0f ? -1.0f : 1.0f;
+    for (std::size_t i = 0; i < m.positions.size(); ++i) {
+      merged.positions.push_back(vec3(inst.transform * vec4(m.positions[i], 1.0f)));
+      if (all_normals) merged.normals.push_back(normal_matrix * m.normals[i]);
+      if (all_tangents && all_normals) {
+        merged.tangents.push_back(vec4(linear * vec3(m.tangents[i]), m.tangents[i].w * handedness));
+      }
+      if (any_uvs) merged.uvs.push_back(m.has_uvs() ? m.uvs[i] : vec2(0.0f));
+    }
+    // A mirroring transform turns the winding around; swap two corners to keep it.
+    for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+      const std::uint32_t a = m.indices[t], b = m.indices[t + 1], c = m.indices[t + 2];
+      if (handedness < 0.0f) merged.indices.insert(merged.indices.end(), {base + a, base + c, base + b});
+      else merged.indices.insert(merged.indices.end(), {base + a, base + b, base + c});
+    }
+  }
+  if (!all_normals) merged.normals.clear();
+  if (!all_tangents || !all_normals) merged.tangents.clear();
+  return merged;
+}
+
+}  // namespace
+
+Result<Mesh> load_mesh(const std::filesystem::path& path, const LoadOptions& options) {
+  try {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) return fail(ErrorKind::NotFound, "mesh file '{}' not found", path.string());
+    if (std::filesystem::is_directory(path, ec)) {
+      return fail(ErrorKind::Io, "mesh file '{}' is a folder, not a file", path.string());
+    }
+    const std::string ext = detail::lowercase_extension(path);
+    Result<Mesh> mesh = std::unexpected(Error{});
+    if (ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl") {
+      mesh = read_with_openmesh(path);
+    } else if (ext == ".gltf" || ext == ".glb") {
+      mesh = merge_gltf(path);
+    } else {
+      return fail(ErrorKind::Unsupported, "mesh file '{}': unknown extension '{}' (weft reads .obj .ply .off .stl .gltf .glb)",
+                  path.string(), ext);
+    }
+    if (!mesh) return mesh;
+    if (auto ok = detail::prepare_mesh(*mesh, options, weft::format("'{}'", path.string())); !ok) {
+      return std::unexpected(ok.error());
+    }
+    return mesh;
+  } catch (const std::bad_alloc&) {
+    return fail(ErrorKind::Parse, "'{}': out of memory while reading (a corrupt element count?)", path.string());
+  } catch (const std::exception& e) {
+    return fail(ErrorKind::Parse, "'{}': {}", path.string(), e.what());
+  } catch (...) {
+    return fail(ErrorKind::Internal, "'{}': unknown exception while reading", path.string());
+  }
+}
+
+}  // namespace weft::scene

@@ -1,0 +1,3 @@
+#include <doctest/doctest.h>
+import weft.scene;
+TEST_CASE("placeholder") { CHECK(true); }
