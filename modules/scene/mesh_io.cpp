@@ -19,6 +19,7 @@ module;
 #include <string_view>
 #include <system_error>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 #include <glm/glm.hpp>
 #include "openmesh.h"
@@ -46,40 +47,81 @@ class CheckedImporter final : public omio::ImporterT<PolyMesh> {
   std::size_t short_faces = 0;      // fewer than 3 corners
   std::size_t non_manifold_faces = 0;
 
-  VertexHandle add_vertex(const OpenMesh::Vec3f& p) override { return Base::add_vertex(p); }
-  VertexHandle add_vertex(const OpenMesh::Vec3d& p) override { return Base::add_vertex(p); }
-  VertexHandle add_vertex() override { return Base::add_vertex(); }
+  // OpenMesh leaves new properties uninitialised: every vertex and corner attribute this
+  // importer could read is set here, so nothing the file did not give is garbage.
+  VertexHandle add_vertex(const OpenMesh::Vec3f& p) override { return cleared(Base::add_vertex(p)); }
+  VertexHandle add_vertex(const OpenMesh::Vec3d& p) override { return cleared(Base::add_vertex(p)); }
+  VertexHandle add_vertex() override { return cleared(Base::add_vertex()); }
 
   HalfedgeHandle add_edge(VertexHandle a, VertexHandle b) override {
     if (!ok(a) || !ok(b)) return bad<HalfedgeHandle>();
     return Base::add_edge(a, b);
   }
   FaceHandle add_face(const VHandles& corners) override {
+    last_face_ = FaceHandle();
+    last_copies_.clear();
     if (corners.size() < 3) {
       ++short_faces;
+      corner_normals_.clear();
       return FaceHandle();
     }
     for (const VertexHandle v : corners) {
-      if (!ok(v)) return bad<FaceHandle>();
+      if (!ok(v)) {
+        corner_normals_.clear();
+        return bad<FaceHandle>();
+      }
     }
     for (std::size_t i = 0; i < corners.size(); ++i) {
       for (std::size_t j = i + 1; j < corners.size(); ++j) {
         if (corners[i] == corners[j]) {
           ++repeated_vertex_faces;
+          corner_normals_.clear();
           return FaceHandle();
         }
       }
     }
     const std::size_t before = mesh_.n_vertices();
     const FaceHandle fh = Base::add_face(corners);
-    if (mesh_.n_vertices() != before) ++non_manifold_faces;  // the importer copied its vertices
+    if (mesh_.n_vertices() != before) {
+      // Refused as non-manifold: the importer added the face on copies of its vertices, in
+      // the order of `corners`. The copies take the originals' attributes.
+      ++non_manifold_faces;
+      for (std::size_t j = 0; j < corners.size() && before + j < mesh_.n_vertices(); ++j) {
+        const VertexHandle copy(static_cast<int>(before + j));
+        mesh_.set_normal(copy, mesh_.normal(corners[j]));
+        mesh_.set_texcoord2D(copy, mesh_.texcoord2D(corners[j]));
+        last_copies_.emplace_back(corners[j], copy);
+      }
+    }
+    if (fh.is_valid()) {
+      for (const auto heh : mesh_.fh_range(fh)) {
+        VertexHandle v = mesh_.to_vertex_handle(heh);
+        for (const auto& [original, copy] : last_copies_) {
+          if (copy == v) v = original;
+        }
+        const auto it = std::find_if(corner_normals_.begin(), corner_normals_.end(),
+                                     [&](const auto& entry) { return entry.first == v; });
+        mesh_.set_normal(heh, it != corner_normals_.end() ? it->second : PolyMesh::Normal(0.0f, 0.0f, 0.0f));
+        mesh_.set_texcoord2D(heh, PolyMesh::TexCoord2D(0.0f, 0.0f));
+      }
+      last_face_ = fh;
+    }
+    corner_normals_.clear();
     return fh;
   }
   FaceHandle add_face(HalfedgeHandle) override { return bad<FaceHandle>(); }  // OpenMesh's own format only
 
   void add_face_texcoords(FaceHandle f, VertexHandle v, const std::vector<OpenMesh::Vec2f>& t) override {
-    if (ok(f) && ok(v)) Base::add_face_texcoords(f, v, t);
-    else bad<int>();
+    if (!ok(f) || !ok(v)) {
+      bad<int>();
+      return;
+    }
+    if (f == last_face_) {
+      for (const auto& [original, copy] : last_copies_) {
+        if (original == v) v = copy;  // the face lies on copies: start at the copy
+      }
+    }
+    Base::add_face_texcoords(f, v, t);
   }
   void add_face_texcoords(FaceHandle f, VertexHandle v, const std::vector<OpenMesh::Vec3f>& t) override {
     if (ok(f) && ok(v)) Base::add_face_texcoords(f, v, t);
@@ -90,8 +132,10 @@ class CheckedImporter final : public omio::ImporterT<PolyMesh> {
   }
   void set_point(VertexHandle v, const OpenMesh::Vec3f& p) override { if (ok(v)) Base::set_point(v, p); else bad<int>(); }
   void set_halfedge(VertexHandle v, HalfedgeHandle h) override { if (ok(v) && ok(h)) Base::set_halfedge(v, h); else bad<int>(); }
-  void set_normal(VertexHandle v, const OpenMesh::Vec3f& n) override { if (ok(v)) Base::set_normal(v, n); else bad<int>(); }
-  void set_normal(VertexHandle v, const OpenMesh::Vec3d& n) override { if (ok(v)) Base::set_normal(v, n); else bad<int>(); }
+  void set_normal(VertexHandle v, const OpenMesh::Vec3f& n) override { set_vertex_normal(v, PolyMesh::Normal(n[0], n[1], n[2])); }
+  void set_normal(VertexHandle v, const OpenMesh::Vec3d& n) override {
+    set_vertex_normal(v, PolyMesh::Normal(float(n[0]), float(n[1]), float(n[2])));
+  }
   void set_color(VertexHandle v, const OpenMesh::Vec3uc& c) override { if (ok(v)) Base::set_color(v, c); }
   void set_color(VertexHandle v, const OpenMesh::Vec4uc& c) override { if (ok(v)) Base::set_color(v, c); }
   void set_color(VertexHandle v, const OpenMesh::Vec3f& c) override { if (ok(v)) Base::set_color(v, c); }
@@ -124,6 +168,26 @@ class CheckedImporter final : public omio::ImporterT<PolyMesh> {
   }
 
  private:
+  VertexHandle cleared(VertexHandle v) {
+    if (ok(v)) {
+      mesh_.set_normal(v, PolyMesh::Normal(0.0f, 0.0f, 0.0f));
+      mesh_.set_texcoord2D(v, PolyMesh::TexCoord2D(0.0f, 0.0f));
+    }
+    return v;
+  }
+  // A reader sets a vertex's normal just before each face it is a corner of (OBJ), or once
+  // per vertex (PLY, OFF); the pending ones become the next face's corner normals.
+  void set_vertex_normal(VertexHandle v, const PolyMesh::Normal& n) {
+    if (!ok(v)) {
+      bad<int>();
+      return;
+    }
+    mesh_.set_normal(v, n);
+    const auto it = std::find_if(corner_normals_.begin(), corner_normals_.end(), [&](const auto& e) { return e.first == v; });
+    if (it != corner_normals_.end()) it->second = n;
+    else if (corner_normals_.size() < 64) corner_normals_.emplace_back(v, n);
+  }
+
   bool ok(VertexHandle v) const { return v.is_valid() && std::size_t(v.idx()) < mesh_.n_vertices(); }
   bool ok(HalfedgeHandle h) const { return h.is_valid() && std::size_t(h.idx()) < mesh_.n_halfedges(); }
   bool ok(EdgeHandle e) const { return e.is_valid() && std::size_t(e.idx()) < mesh_.n_edges(); }
@@ -136,6 +200,9 @@ class CheckedImporter final : public omio::ImporterT<PolyMesh> {
 
   PolyMesh& mesh_;
   std::size_t size_hint_;
+  std::vector<std::pair<VertexHandle, PolyMesh::Normal>> corner_normals_;
+  FaceHandle last_face_;
+  std::vector<std::pair<VertexHandle, VertexHandle>> last_copies_;
 };
 
 // One split vertex: an OpenMesh vertex with the UV and normal of one of its corners.
@@ -178,6 +245,11 @@ Result<Mesh> read_with_openmesh(const std::filesystem::path& path) {
                 path.string(), importer.bad_references);
   }
 
+  if (pm.n_faces() == 0) {
+    return fail(ErrorKind::InvalidArgument, "'{}': the file has {} vertices but no faces (the mesh has no triangles)",
+                path.string(), pm.n_vertices());
+  }
+
   Mesh mesh;
   mesh.name = path.stem().string();
   if (importer.repeated_vertex_faces > 0 || importer.short_faces > 0) {
@@ -190,9 +262,11 @@ Result<Mesh> read_with_openmesh(const std::filesystem::path& path) {
                                              path.string(), importer.non_manifold_faces));
   }
 
-  const bool has_normals = opt.vertex_has_normal();
-  const bool corner_uvs = opt.face_has_texcoord();
-  const bool vertex_uvs = !corner_uvs && opt.vertex_has_texcoord();
+  // STL has neither (and OpenMesh's STL reader leaves the requested flags set).
+  const bool stl = detail::lowercase_extension(path) == ".stl";
+  const bool has_normals = !stl && opt.vertex_has_normal();
+  const bool corner_uvs = !stl && opt.face_has_texcoord();
+  const bool vertex_uvs = !stl && !corner_uvs && opt.vertex_has_texcoord();
   std::unordered_map<CornerKey, std::uint32_t, CornerKeyHash> split;
   split.reserve(pm.n_vertices() * 2);
   std::vector<std::uint32_t> polygon;
@@ -229,6 +303,12 @@ Result<Mesh> read_with_openmesh(const std::filesystem::path& path) {
     for (std::size_t i = 1; i + 1 < polygon.size(); ++i) {
       mesh.indices.insert(mesh.indices.end(), {polygon[0], polygon[i], polygon[i + 1]});
     }
+  }
+  if (stl) {
+    // A triangle soup with nothing but positions: equal positions are one vertex.
+    detail::Welding w = detail::weld(mesh.positions);
+    for (std::uint32_t& i : mesh.indices) i = w.of[i];
+    mesh.positions = std::move(w.positions);
   }
   return mesh;
 }

@@ -1,0 +1,223 @@
+// weft.scene glTF: a hierarchy with a camera and a KHR light (embedded base64 buffer and
+// GLB), materials, merging into one mesh, and the error and warning paths.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "support.h"
+
+import weft.core;
+import weft.scene;
+
+using namespace scene_test;
+using weft::ErrorKind;
+using weft::mat4;
+using weft::vec3;
+using weft::vec4;
+namespace sc = weft::scene;
+
+namespace {
+
+bool near3(vec3 a, vec3 b, float eps = 1e-5f) { return glm::length(a - b) <= eps; }
+vec3 apply(const mat4& m, vec3 p) { return vec3(m * vec4(p, 1.0f)); }
+
+const sc::Object* instance(const sc::GltfScene& s, std::string_view name) {
+  for (const auto& o : s.instances) {
+    if (o.name == name) return &o;
+  }
+  return nullptr;
+}
+
+void check_quad_scene(const sc::GltfScene& s) {
+  REQUIRE(s.meshes.size() == 1);
+  const sc::Mesh& quad = s.meshes[0];
+  CHECK(quad.name == "quad");
+  CHECK(quad.vertex_count() == 4);
+  CHECK(quad.triangle_count() == 2);
+  CHECK(quad.has_uvs());
+  for (std::size_t i = 0; i < 4; ++i) {
+    CHECK(near3(quad.normals[i], {0, 0, 1}));
+    CHECK(near3(vec3(quad.tangents[i]), {1, 0, 0}));  // u along +X
+    CHECK(quad.tangents[i].w == 1.0f);                // v along +Y = cross(n, t)
+  }
+
+  REQUIRE(s.instances.size() == 2);
+  const sc::Object* child = instance(s, "child");
+  const sc::Object* turned = instance(s, "turned");
+  REQUIRE(child != nullptr);
+  REQUIRE(turned != nullptr);
+  // child = T(1,0,0) S(2) T(0,1,0): its origin lands at (1,2,0), the quad's far corner at (3,4,0).
+  CHECK(near3(apply(child->transform, {0, 0, 0}), {1, 2, 0}));
+  CHECK(near3(apply(child->transform, {1, 1, 0}), {3, 4, 0}));
+  // turned: 90 degrees about +Y takes +X to -Z.
+  CHECK(near3(apply(turned->transform, {1, 0, 0}), {0, 0, -1}, 1e-4f));
+
+  REQUIRE(s.materials.size() == 1);
+  const sc::Material& red = s.materials[child->material];
+  CHECK(red.name == "red");
+  CHECK(red.type == sc::MaterialType::Standard);
+  CHECK(near3(red.standard.base_color, {1, 0, 0}));
+  CHECK(red.standard.metallic == doctest::Approx(0.25f));
+  CHECK(red.standard.roughness == doctest::Approx(0.75f));
+  CHECK(near3(red.standard.emissive, {0.5f, 0, 0}));
+
+  REQUIRE(s.cameras.size() == 1);
+  const sc::Camera& cam = s.cameras[0];
+  CHECK(near3(cam.position, {0, 0, 5}));
+  CHECK(near3(cam.forward(), {0, 0, -1}));
+  CHECK(cam.fov_y_degrees == doctest::Approx(45.0f));
+  CHECK(cam.near == doctest::Approx(0.05f));
+  CHECK(cam.far == doctest::Approx(50.0f));
+
+  REQUIRE(s.lights.size() == 1);
+  const auto* spot = std::get_if<sc::SpotLight>(&s.lights[0]);
+  REQUIRE(spot != nullptr);
+  CHECK(spot->name == "spot");
+  CHECK(near3(spot->position, {1, 0, 2}));  // lamp: T(1,0,0) S(2) T(0,0,1)
+  CHECK(near3(spot->direction, {0, 0, -1}));
+  CHECK(near3(spot->color, {1, 0.5f, 0.25f}));
+  CHECK(spot->intensity == doctest::Approx(10.0f));
+  CHECK(spot->range == doctest::Approx(20.0f));
+  CHECK(spot->inner_cone_degrees == doctest::Approx(0.2 * 180.0 / 3.14159265358979));
+  CHECK(spot->outer_cone_degrees == doctest::Approx(0.5 * 180.0 / 3.14159265358979));
+}
+
+}  // namespace
+
+TEST_CASE("glTF: hierarchy, camera, KHR light and material from an embedded buffer") {
+  TempDir dir;
+  write_file(dir / "scene.gltf", gltf_json());
+  auto s = sc::load_gltf(dir / "scene.gltf");
+  REQUIRE_MESSAGE(s.has_value(), s.error().what());
+  check_quad_scene(*s);
+  CHECK(s->warnings.empty());
+}
+
+TEST_CASE("glTF: the same scene as a binary .glb") {
+  TempDir dir;
+  write_file(dir / "scene.glb", glb_bytes());
+  auto s = sc::load_gltf(dir / "scene.glb");
+  REQUIRE_MESSAGE(s.has_value(), s.error().what());
+  check_quad_scene(*s);
+}
+
+TEST_CASE("glTF: load_mesh merges every instance in world space; load_scene builds a Scene") {
+  TempDir dir;
+  write_file(dir / "scene.gltf", gltf_json());
+  auto mesh = sc::load_mesh(dir / "scene.gltf");
+  REQUIRE_MESSAGE(mesh.has_value(), mesh.error().what());
+  CHECK(mesh->vertex_count() == 8);
+  CHECK(mesh->triangle_count() == 4);
+  CHECK(std::any_of(mesh->positions.begin(), mesh->positions.end(), [](vec3 p) { return near3(p, {3, 4, 0}); }));
+  CHECK(near3(mesh->bounds.max, {3, 4, 0}, 1e-4f));
+
+  auto scene = sc::load_scene(dir / "scene.gltf");
+  REQUIRE_MESSAGE(scene.has_value(), scene.error().what());
+  CHECK(scene->objects.size() == 2);
+  CHECK(near3(scene->camera.position, {0, 0, 5}));  // the file's camera
+  CHECK(scene->lights.size() == 1);                   // its own light: no default added
+  CHECK(scene->uses(sc::MaterialType::Standard));
+  CHECK_FALSE(scene->uses(sc::MaterialType::Fur));
+}
+
+TEST_CASE("glTF: a missing texture file is a warning naming the material and the path") {
+  TempDir dir;
+  GltfOptions o;
+  o.texture_uri = "textures/missing%20file.png";
+  write_file(dir / "textured.gltf", gltf_json(o));
+  auto s = sc::load_gltf(dir / "textured.gltf");
+  REQUIRE_MESSAGE(s.has_value(), s.error().what());
+  REQUIRE(s->warnings.size() == 1);
+  CHECK(contains(s->warnings[0], "'red'"));
+  CHECK(contains(s->warnings[0], "missing file.png"));  // percent-decoded
+  CHECK(s->materials[0].standard.base_color_texture.empty());
+
+  // Once the file is there, the material points at it.
+  std::filesystem::create_directories(dir / "textures");
+  write_file(dir / "textures" / "missing file.png", "not decoded here");
+  auto again = sc::load_gltf(dir / "textured.gltf");
+  REQUIRE(again.has_value());
+  CHECK(again->warnings.empty());
+  CHECK(again->materials[0].standard.base_color_texture.path == dir / "textures" / "missing file.png");
+  CHECK(again->materials[0].standard.base_color_texture.mime_type == "image/png");
+}
+
+TEST_CASE("glTF: errors name the file and what is wrong") {
+  TempDir dir;
+  SUBCASE("truncated JSON") {
+    const std::string text = gltf_json();
+    write_file(dir / "truncated.gltf", text.substr(0, text.size() / 2));
+    auto s = sc::load_gltf(dir / "truncated.gltf");
+    REQUIRE_FALSE(s.has_value());
+    CHECK(s.error().kind == ErrorKind::Parse);
+    CHECK(contains(s.error().message, "truncated.gltf"));
+  }
+  SUBCASE("truncated GLB") {
+    auto bytes = glb_bytes();
+    bytes.resize(bytes.size() - 20);
+    write_file(dir / "truncated.glb", bytes);
+    auto s = sc::load_gltf(dir / "truncated.glb");
+    REQUIRE_FALSE(s.has_value());
+    CHECK(s.error().kind == ErrorKind::Parse);
+    CHECK(contains(s.error().message, "truncated.glb"));
+  }
+  SUBCASE("a bufferView beyond its buffer") {
+    GltfOptions o;
+    o.view0_length = 400;
+    write_file(dir / "view.gltf", gltf_json(o));
+    auto s = sc::load_gltf(dir / "view.gltf");
+    REQUIRE_FALSE(s.has_value());
+    CHECK(s.error().kind == ErrorKind::Parse);
+    CHECK(contains(s.error().message, "view.gltf"));
+    CHECK(contains(s.error().message, "bufferView 0"));
+  }
+  SUBCASE("an accessor beyond its bufferView") {
+    GltfOptions o;
+    o.view0_length = 100;  // inside the buffer, but the UVs (96..127) no longer fit
+    write_file(dir / "accessor.gltf", gltf_json(o));
+    auto s = sc::load_gltf(dir / "accessor.gltf");
+    REQUIRE_FALSE(s.has_value());
+    CHECK(contains(s.error().message, "accessor 2"));
+    CHECK(contains(s.error().message, "TEXCOORD_0"));
+  }
+  SUBCASE("a NaN position names the vertex") {
+    GltfOptions o;
+    o.nan_at_vertex = 2;
+    write_file(dir / "nan.gltf", gltf_json(o));
+    auto s = sc::load_gltf(dir / "nan.gltf");
+    REQUIRE_FALSE(s.has_value());
+    CHECK(contains(s.error().message, "nan.gltf"));
+    CHECK(contains(s.error().message, "vertex 2"));
+  }
+  SUBCASE("a node hierarchy with a cycle") {
+    std::string text = gltf_json();
+    const std::string child = R"("name": "child", "translation": [0, 1, 0], "mesh": 0)";
+    text.replace(text.find(child), child.size(), child + R"(, "children": [0])");
+    write_file(dir / "cycle.gltf", text);
+    auto s = sc::load_gltf(dir / "cycle.gltf");
+    REQUIRE_FALSE(s.has_value());
+    CHECK(contains(s.error().message, "cycle"));
+  }
+  SUBCASE("a required extension weft does not read") {
+    std::string text = gltf_json();
+    text.replace(text.find(R"("extensionsUsed")"), 0, R"("extensionsRequired": ["KHR_draco_mesh_compression"], )");
+    write_file(dir / "draco.gltf", text);
+    auto s = sc::load_gltf(dir / "draco.gltf");
+    REQUIRE_FALSE(s.has_value());
+    CHECK(s.error().kind == ErrorKind::Unsupported);
+    CHECK(contains(s.error().message, "KHR_draco_mesh_compression"));
+  }
+  SUBCASE("not a file") {
+    auto s = sc::load_gltf(dir / "absent.gltf");
+    REQUIRE_FALSE(s.has_value());
+    CHECK(s.error().kind == ErrorKind::NotFound);
+  }
+}

@@ -1,3 +1,0 @@
-#include <doctest/doctest.h>
-import weft.scene;
-TEST_CASE("placeholder") { CHECK(true); }
