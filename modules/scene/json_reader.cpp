@@ -31,14 +31,15 @@ bool identifier(std::string_view key) {
   return std::all_of(key.begin(), key.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
 }
 
+// "[1, 256]" / "(0, 180)" for intervals, ": must be > 0" for one-sided ranges.
 std::string describe_range(const Range& r) {
   const bool has_min = std::isfinite(r.min), has_max = std::isfinite(r.max);
   if (has_min && has_max) {
-    return fmt::format("{}{}, {}{}", r.min_exclusive ? '(' : '[', r.min, r.max, r.max_exclusive ? ')' : ']');
+    return fmt::format(" {}{}, {}{}", r.min_exclusive ? '(' : '[', r.min, r.max, r.max_exclusive ? ')' : ']');
   }
-  if (has_min) return fmt::format("must be {} {}", r.min_exclusive ? ">" : ">=", r.min);
-  if (has_max) return fmt::format("must be {} {}", r.max_exclusive ? "<" : "<=", r.max);
-  return "must be finite";
+  if (has_min) return fmt::format(": must be {} {}", r.min_exclusive ? ">" : ">=", r.min);
+  if (has_max) return fmt::format(": must be {} {}", r.max_exclusive ? "<" : "<=", r.max);
+  return ": must be finite";
 }
 
 bool in_range(double v, const Range& r) {
@@ -125,7 +126,7 @@ double JsonReader::number(std::string_view key, double fallback, Range range) {
   }
   const double d = v->get<double>();
   if (!in_range(d, range)) {
-    error_at(key, fmt::format("{} is out of range: {}", d, describe_range(range)));
+    error_at(key, fmt::format("{} is out of range{}", d, describe_range(range)));
     return fallback;
   }
   return d;
@@ -151,7 +152,7 @@ std::int64_t JsonReader::integer(std::string_view key, std::int64_t fallback, Ra
     }
   }
   if (!in_range(d, range) || std::abs(d) > 9.0e15) {
-    error_at(key, fmt::format("{} is out of range: {}", d, describe_range(range)));
+    error_at(key, fmt::format("{} is out of range{}", d, describe_range(range)));
     return fallback;
   }
   return static_cast<std::int64_t>(d);
@@ -206,7 +207,7 @@ bool read_numbers(JsonReader& reader, std::string_view key, const nlohmann::json
     }
     const double d = e.get<double>();
     if (!in_range(d, range) || std::abs(d) > double(std::numeric_limits<float>::max())) {
-      reader.errors().add(at, fmt::format("{} is out of range: {}", d, describe_range(range)));
+      reader.errors().add(at, fmt::format("{} is out of range{}", d, describe_range(range)));
       ok = false;
       continue;
     }

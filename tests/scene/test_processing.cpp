@@ -75,7 +75,6 @@ TEST_CASE("sphere: recomputed normals are radial; curvatures are 1/r and 1/r^2")
   const Stats skin = stats(n, [&](std::size_t i) { return sphere->curvature[i]; });
   const Stats mean = stats(n, [&](std::size_t i) { return sphere->mean_curvature[i]; });
   const Stats gauss = stats(n, [&](std::size_t i) { return sphere->gaussian_curvature[i]; });
-  MESSAGE("skin [", skin.min, ", ", skin.max, "] mean [", mean.min, ", ", mean.max, "] gauss [", gauss.min, ", ", gauss.max, "]");
   // Every vertex, poles included, within 3% of 1/r = 0.5.
   CHECK(skin.min > 0.5 * 0.97);
   CHECK(skin.max < 0.5 * 1.03);
