@@ -7,4 +7,6 @@
 namespace weft::cli {
 using Command = std::function<int()>;
 Command add_info(CLI::App& app);
+Command add_render(CLI::App& app);
+Command add_graph(CLI::App& app);
 }  // namespace weft::cli

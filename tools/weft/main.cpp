@@ -14,6 +14,8 @@ int main(int argc, char** argv) {
     commands.emplace_back(app.get_subcommands({})[before], std::move(command));
   };
   add(weft::cli::add_info);
+  add(weft::cli::add_render);
+  add(weft::cli::add_graph);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

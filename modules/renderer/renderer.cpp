@@ -1,0 +1,305 @@
+module;
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <expected>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <unordered_map>
+#include <variant>
+#include <vector>
+#include <glm/gtc/matrix_transform.hpp>
+module weft.renderer;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+import weft.image;
+import weft.scene;
+import weft.pass.shadow;
+import weft.pass.forward;
+import weft.pass.background;
+import weft.pass.tonemap;
+
+namespace weft::renderer {
+
+std::string_view to_string(Quality q) {
+  switch (q) {
+    case Quality::Low: return "low";
+    case Quality::Medium: return "medium";
+    case Quality::High: return "high";
+    case Quality::Reference: return "reference";
+  }
+  return "?";
+}
+
+Result<Quality> quality_from_string(std::string_view name) {
+  for (Quality q : {Quality::Low, Quality::Medium, Quality::High, Quality::Reference})
+    if (to_string(q) == name) return q;
+  return fail(ErrorKind::InvalidArgument, "unknown quality '{}' (low, medium, high, reference)", name);
+}
+
+namespace {
+std::uint32_t shadow_resolution(Quality q) {
+  switch (q) {
+    case Quality::Low: return 1024;
+    case Quality::Medium: return 2048;
+    case Quality::High: return 4096;
+    case Quality::Reference: return 8192;
+  }
+  return 2048;
+}
+}  // namespace
+
+struct Renderer::State {
+  gpu::Device* device = nullptr;
+  CacheStats stats;
+  std::optional<passes::ShadowPass> shadow;
+  std::optional<passes::ForwardPass> forward;
+  std::optional<passes::BackgroundPass> background;
+  std::optional<passes::TonemapPass> tonemap;
+  std::unordered_map<std::uint64_t, frame::GpuMesh> meshes;
+  std::uint64_t environment_key = 0;
+  std::optional<gpu::Texture> environment;
+  std::array<vec4, 9> environment_sh{};
+  std::optional<gpu::Texture> no_shadow;  // 1x1 depth 1.0 when the scene has no key light
+  std::optional<gpu::Buffer> uniforms;
+  std::optional<gpu::Texture> output;
+
+  // One frame's inputs, kept alive until the graph has executed.
+  std::vector<frame::DrawItem> items;
+  frame::FrameUniforms frame_uniforms;
+  std::vector<std::string> warnings;
+
+  Result<void> ensure_passes(bool key_light, Quality quality);
+  Result<void> upload_scene(const scene::Scene& scene);
+  Result<void> prepare(const scene::Scene& scene, const RenderOptions& options, std::uint32_t w, std::uint32_t h);
+  Result<std::pair<RenderGraph, TextureHandle>> build_graph(const RenderOptions& options, bool key_light);
+};
+
+Result<void> Renderer::State::ensure_passes(bool key_light, Quality quality) {
+  auto create = [&](auto& slot, auto make) -> Result<void> {
+    if (slot) return {};
+    auto pass = make();
+    if (!pass) return std::unexpected(pass.error());
+    slot.emplace(std::move(*pass));
+    ++stats.pass_creations;
+    return {};
+  };
+  const std::uint32_t resolution = std::min(shadow_resolution(quality), device->adapter_info().limits.max_texture_dimension_2d);
+  if (key_light && shadow && shadow->settings().resolution != resolution) shadow.reset();
+  if (key_light)
+    if (auto ok = create(shadow, [&] { return passes::ShadowPass::create(*device, {.resolution = resolution}); }); !ok) return ok;
+  if (auto ok = create(forward, [&] { return passes::ForwardPass::create(*device); }); !ok) return ok;
+  if (auto ok = create(background, [&] { return passes::BackgroundPass::create(*device); }); !ok) return ok;
+  if (auto ok = create(tonemap, [&] { return passes::TonemapPass::create(*device); }); !ok) return ok;
+  if (!key_light && !no_shadow) {
+    auto t = device->create_texture({.label = "no_shadow", .size = {1, 1, 1}, .format = gpu::Format::Depth32Float,
+                                     .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
+    if (!t) return std::unexpected(t.error());
+    const float far_depth = 1.0f;
+    if (auto ok = device->queue().write_texture(*t, std::as_bytes(std::span(&far_depth, 1))); !ok) return ok;
+    no_shadow.emplace(std::move(*t));
+  }
+  return {};
+}
+
+Result<void> Renderer::State::upload_scene(const scene::Scene& scene) {
+  for (const auto& mesh : scene.meshes) {
+    const auto key = detail::content_hash(mesh);
+    if (meshes.contains(key)) continue;
+    auto gpu_mesh = frame::upload_mesh(*device, detail::to_mesh_data(mesh));
+    if (!gpu_mesh) return with_context(weft::format("uploading mesh '{}'", mesh.name), gpu_mesh.error());
+    meshes.emplace(key, std::move(*gpu_mesh));
+    ++stats.mesh_uploads;
+  }
+  const auto env_key = detail::content_hash(scene.environment);
+  if (!environment || env_key != environment_key) {
+    const auto texels = detail::environment_texels(scene.environment);
+    auto t = device->create_texture({.label = "environment", .size = {texels.width, texels.height, 1},
+                                     .format = gpu::Format::RGBA32Float,
+                                     .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
+    if (!t) return std::unexpected(t.error());
+    if (auto ok = device->queue().write_texture(*t, std::as_bytes(std::span(texels.rgba))); !ok) return ok;
+    environment.emplace(std::move(*t));
+    environment_sh = frame::irradiance_sh(texels.rgb, texels.width, texels.height);
+    environment_key = env_key;
+    ++stats.environment_uploads;
+  }
+  return {};
+}
+
+Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOptions& options, std::uint32_t w,
+                                      std::uint32_t h) {
+  warnings.clear();
+  items.clear();
+  for (const auto& object : scene.objects) {
+    const auto& mesh = scene.meshes.at(object.mesh);
+    const auto& material = scene.materials.at(object.material);
+    frame::DrawItem item{.mesh = &meshes.at(detail::content_hash(mesh)), .model = object.transform};
+    const auto& s = material.standard;
+    item.material = {.base_color = s.base_color, .metallic = s.metallic, .roughness = s.roughness, .emissive = s.emissive};
+    if (material.type != scene::MaterialType::Standard)
+      warnings.push_back(weft::format("material '{}' is a {} material; its pass is not in this build yet, so object "
+                                      "'{}' is shaded as standard PBR",
+                                      material.name, scene::to_string(material.type), object.name));
+    if (!s.base_color_texture.empty() || !s.normal_texture.empty() || !s.metallic_roughness_texture.empty())
+      warnings.push_back(weft::format("material '{}': textures are not sampled yet; using its constant factors",
+                                      material.name));
+    items.push_back(item);
+  }
+  std::sort(warnings.begin(), warnings.end());
+  warnings.erase(std::unique(warnings.begin(), warnings.end()), warnings.end());
+
+  const scene::DirectionalLight* key = nullptr;
+  for (const auto& light : scene.lights) {
+    if (const auto* d = std::get_if<scene::DirectionalLight>(&light)) {
+      if (!key) key = d;
+    } else {
+      warnings.push_back("point and spot lights are not shaded yet; only the first directional light is");
+    }
+  }
+
+  frame::FrameUniforms& u = frame_uniforms;
+  const auto& cam = scene.camera;
+  u.view = cam.view();
+  u.projection = cam.projection(float(w) / float(h));
+  u.view_projection = u.projection * u.view;
+  u.inverse_view_projection = glm::inverse(u.view_projection);
+  u.camera_position = vec4(cam.position, 1.0f);
+  if (key) {
+    const vec3 towards = -glm::normalize(key->direction);
+    const auto bounds = scene.bounds();
+    u.light_direction = vec4(towards, 0.0f);
+    u.light_color = vec4(key->color * key->intensity, 0.0f);
+    u.light_view_projection = passes::fit_light_view_projection(towards, bounds.min, bounds.max);
+  } else {
+    u.light_direction = vec4(0, 1, 0, 0);
+    u.light_color = vec4(0.0f);
+    u.light_view_projection = mat4(1.0f);
+  }
+  u.environment = vec4(scene.environment.intensity, glm::radians(scene.environment.rotation_degrees), 1.0f, 0.0f);
+  u.viewport = vec4(float(w), float(h), 1.0f / float(w), 1.0f / float(h));
+  // SH is of the unrotated map: rotate it by evaluating with rotated normals? Simpler and
+  // exact: recompute for a rotated environment (cheap next to the frame on lavapipe).
+  u.irradiance_sh = environment_sh;
+  if (scene.environment.rotation_degrees != 0.0f) {
+    const auto texels = detail::environment_texels(scene.environment);
+    u.irradiance_sh = frame::irradiance_sh(texels.rgb, texels.width, texels.height,
+                                           glm::radians(scene.environment.rotation_degrees));
+  }
+  (void)options;
+
+  if (!uniforms) {
+    auto b = device->create_buffer({.label = "frame_uniforms", .size = sizeof(frame::FrameUniforms),
+                                    .usage = gpu::BufferUsage::Uniform | gpu::BufferUsage::CopyDst});
+    if (!b) return std::unexpected(b.error());
+    uniforms.emplace(std::move(*b));
+  }
+  if (auto ok = device->queue().write_buffer(*uniforms, 0, std::as_bytes(std::span(&u, 1))); !ok) return ok;
+  if (!output || output->size().width != w || output->size().height != h) {
+    output.reset();
+    auto t = device->create_texture({.label = "output", .size = {w, h, 1}, .format = passes::output_format,
+                                     .usage = gpu::TextureUsage::ColorAttachment | gpu::TextureUsage::CopySrc});
+    if (!t) return std::unexpected(t.error());
+    output.emplace(std::move(*t));
+  }
+  return {};
+}
+
+Result<std::pair<RenderGraph, TextureHandle>> Renderer::State::build_graph(const RenderOptions& options, bool key_light) {
+  RenderGraph graph("frame");
+  auto& board = graph.blackboard();
+  board.put("frame_uniforms", graph.import_buffer("frame_uniforms", &*uniforms, gpu::Access::UniformRead));
+  board.put("environment", graph.import_texture("environment", &*environment, gpu::Access::ShaderRead));
+  if (key_light)
+    shadow->add(graph, items, frame_uniforms.light_view_projection);
+  else
+    board.put("shadow_map", graph.import_texture("no_shadow", &*no_shadow, gpu::Access::ShaderRead));
+  if (auto ok = forward->add(graph, items); !ok) return std::unexpected(ok.error());
+  if (auto ok = background->add(graph); !ok) return std::unexpected(ok.error());
+  auto out = tonemap->add(graph, graph.import_texture("output", &*output, gpu::Access::Undefined),
+                          {.exposure = options.exposure,
+                           .tone_operator = options.aces ? passes::ToneOperator::Aces : passes::ToneOperator::Clamp});
+  if (!out) return std::unexpected(out.error());
+  graph.mark_output(*out, gpu::Access::CopySrc);
+  return std::pair{std::move(graph), *out};
+}
+
+Result<Renderer> Renderer::create(gpu::Device& device) {
+  Renderer r;
+  r.state_ = std::make_unique<State>();
+  r.state_->device = &device;
+  return r;
+}
+
+Renderer::Renderer(Renderer&&) noexcept = default;
+Renderer& Renderer::operator=(Renderer&&) noexcept = default;
+Renderer::~Renderer() = default;
+
+Renderer::CacheStats Renderer::cache_stats() const { return state_->stats; }
+
+namespace {
+bool has_key_light(const scene::Scene& scene) {
+  return std::any_of(scene.lights.begin(), scene.lights.end(),
+                     [](const scene::Light& l) { return std::holds_alternative<scene::DirectionalLight>(l); });
+}
+
+Result<std::pair<std::uint32_t, std::uint32_t>> frame_size(const scene::Scene& scene, const RenderOptions& options) {
+  const std::uint32_t w = options.width ? options.width : scene.output.width;
+  const std::uint32_t h = options.height ? options.height : scene.output.height;
+  if (w == 0 || h == 0 || w > 16384 || h > 16384)
+    return fail(ErrorKind::InvalidArgument, "output size {}x{} must be within 1..16384 on each side", w, h);
+  return std::pair{w, h};
+}
+}  // namespace
+
+Result<GraphReport> Renderer::describe(const scene::Scene& scene, const RenderOptions& options) {
+  auto size = frame_size(scene, options);
+  if (!size) return std::unexpected(size.error());
+  const bool key = has_key_light(scene);
+  auto& s = *state_;
+  if (auto ok = s.ensure_passes(key, options.quality); !ok) return std::unexpected(ok.error());
+  if (auto ok = s.upload_scene(scene); !ok) return std::unexpected(ok.error());
+  if (auto ok = s.prepare(scene, options, size->first, size->second); !ok) return std::unexpected(ok.error());
+  auto built = s.build_graph(options, key);
+  if (!built) return std::unexpected(built.error());
+  auto compiled = built->first.compile({.output_extent = {size->first, size->second, 1}, .device = s.device});
+  if (!compiled) return std::unexpected(compiled.error().to_error());
+  GraphReport report{compiled->to_dot(), compiled->dump(), {}, {}};
+  for (auto index : compiled->order()) report.passes.emplace_back(compiled->passes()[index].name);
+  for (const auto& p : compiled->passes())
+    if (p.culled) report.culled_passes.emplace_back(p.name);
+  return report;
+}
+
+Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& options) {
+  auto size = frame_size(scene, options);
+  if (!size) return std::unexpected(size.error());
+  const auto [w, h] = *size;
+  const bool key = has_key_light(scene);
+  auto& s = *state_;
+  if (auto ok = s.ensure_passes(key, options.quality); !ok) return std::unexpected(ok.error());
+  if (auto ok = s.upload_scene(scene); !ok) return std::unexpected(ok.error());
+  if (auto ok = s.prepare(scene, options, w, h); !ok) return std::unexpected(ok.error());
+  auto built = s.build_graph(options, key);
+  if (!built) return std::unexpected(built.error());
+  auto compiled = built->first.compile({.output_extent = {w, h, 1}, .device = s.device});
+  if (!compiled) return std::unexpected(compiled.error().to_error());
+  auto stats = compiled->execute(*s.device, {.timestamps = options.timestamps});
+  if (!stats) return std::unexpected(stats.error());
+  auto pixels = s.device->queue().read_texture(*s.output);
+  if (!pixels) return std::unexpected(pixels.error());
+  Frame frame;
+  frame.image = image::Image8::filled(w, h, 4);
+  std::memcpy(frame.image.pixels.data(), pixels->data(), frame.image.pixels.size());
+  frame.stats = std::move(*stats);
+  for (auto index : compiled->order()) frame.passes.emplace_back(compiled->passes()[index].name);
+  frame.warnings = s.warnings;
+  return frame;
+}
+
+}  // namespace weft::renderer

@@ -1,0 +1,82 @@
+// weft.renderer — turns a scene into a frame: adds only the passes the scene's materials
+// and lights need, builds and compiles the graph, executes it and reads the image back.
+// GPU meshes, environment maps and pass pipelines are cached across frames.
+module;
+#include <cstdint>
+#include <expected>
+#include <memory>
+#include <string>
+#include <vector>
+export module weft.renderer;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.image;
+import weft.scene;
+import weft.frame;
+
+export namespace weft::renderer {
+
+enum class Quality : std::uint8_t { Low, Medium, High, Reference };
+std::string_view to_string(Quality quality);
+Result<Quality> quality_from_string(std::string_view name);
+
+struct RenderOptions {
+  std::uint32_t width = 0, height = 0;  // 0: the scene's output size
+  Quality quality = Quality::Medium;
+  float exposure = 1.0f;
+  bool aces = true;          // ACES tone curve; false: plain clamp (for analytic checks)
+  bool timestamps = true;
+};
+
+struct Frame {
+  image::Image8 image;        // RGBA, sRGB-encoded
+  FrameStats stats;           // per-pass GPU and CPU times, transient memory
+  std::vector<std::string> passes;  // the passes that ran, in order
+  std::vector<std::string> warnings;
+};
+
+// The compiled graph of a scene without executing it: for `weft graph` and tests.
+struct GraphReport {
+  std::string dot;
+  std::string dump;
+  std::vector<std::string> passes;         // executed passes, in order
+  std::vector<std::string> culled_passes;
+};
+
+class Renderer {
+ public:
+  static Result<Renderer> create(gpu::Device& device);
+  Renderer(Renderer&&) noexcept;
+  Renderer& operator=(Renderer&&) noexcept;
+  ~Renderer();
+
+  Result<Frame> render(const scene::Scene& scene, const RenderOptions& options = {});
+  Result<GraphReport> describe(const scene::Scene& scene, const RenderOptions& options = {});
+
+  // How many times each cache did real work (tests assert the second frame does none).
+  struct CacheStats {
+    std::uint32_t mesh_uploads = 0, environment_uploads = 0, pass_creations = 0;
+  };
+  [[nodiscard]] CacheStats cache_stats() const;
+
+ private:
+  Renderer() = default;
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace weft::renderer
+
+// Shared by the implementation units (not exported).
+namespace weft::renderer::detail {
+std::uint64_t content_hash(const scene::Mesh& mesh);
+std::uint64_t content_hash(const scene::Environment& env);
+frame::MeshData to_mesh_data(const scene::Mesh& mesh);
+struct EnvironmentTexels {
+  std::uint32_t width = 4, height = 2;
+  std::vector<vec4> rgba;
+  std::vector<float> rgb;
+};
+EnvironmentTexels environment_texels(const scene::Environment& env);
+}  // namespace weft::renderer::detail

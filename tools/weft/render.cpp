@@ -1,0 +1,140 @@
+// `weft render SCENE.json -o out.png [--quality q] [--size WxH] [--profile]` and
+// `weft graph SCENE.json [--dot out.dot] [--dump]`.
+#include <chrono>
+#include <cstdio>
+#include <expected>
+#include <fstream>
+#include <memory>
+#include <string>
+#include "commands.h"
+import weft.core;
+import weft.gpu;
+import weft.image;
+import weft.scene;
+import weft.renderer;
+
+namespace weft::cli {
+
+namespace {
+struct Common {
+  std::string scene_path;
+  std::string quality = "medium";
+  std::string size;
+};
+
+void add_common(CLI::App* sub, Common& c) {
+  sub->add_option("scene", c.scene_path, "Scene file (.json, or a .gltf/.glb)")->required();
+  sub->add_option("-q,--quality", c.quality, "low | medium | high | reference")->capture_default_str();
+  sub->add_option("-s,--size", c.size, "Output size WxH (default: the scene's)");
+}
+
+int fail_with(const char* command, const Error& e) {
+  std::fprintf(stderr, "weft %s: %s\n", command, e.what().c_str());
+  return 1;
+}
+
+struct Session {
+  gpu::Instance instance;
+  gpu::Adapter adapter;
+  gpu::Device device;
+};
+
+Result<Session> open_session(const char* name) {
+  auto instance = gpu::Instance::create({.application_name = name});
+  if (!instance) return std::unexpected(instance.error());
+  auto adapter = instance->request_adapter();
+  if (!adapter) return std::unexpected(adapter.error());
+  auto device = adapter->request_device();
+  if (!device) return std::unexpected(device.error());
+  return Session{std::move(*instance), std::move(*adapter), std::move(*device)};
+}
+
+Result<renderer::RenderOptions> options_from(const Common& c) {
+  renderer::RenderOptions o;
+  auto q = renderer::quality_from_string(c.quality);
+  if (!q) return std::unexpected(q.error());
+  o.quality = *q;
+  if (!c.size.empty()) {
+    unsigned w = 0, h = 0;
+    char extra = 0;
+    if (std::sscanf(c.size.c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0)
+      return fail(ErrorKind::InvalidArgument, "--size expects WxH (e.g. 1280x720), got '{}'", c.size);
+    o.width = w;
+    o.height = h;
+  }
+  return o;
+}
+}  // namespace
+
+Command add_render(CLI::App& app) {
+  auto* sub = app.add_subcommand("render", "Render a scene to an image");
+  auto c = std::make_shared<Common>();
+  auto output = std::make_shared<std::string>("out.png");
+  auto profile = std::make_shared<bool>(false);
+  auto exposure = std::make_shared<float>(1.0f);
+  add_common(sub, *c);
+  sub->add_option("-o,--output", *output, "Output image (.png, or .exr/.hdr for linear float)")->capture_default_str();
+  sub->add_option("--exposure", *exposure, "Exposure multiplier before tone mapping")->capture_default_str();
+  sub->add_flag("--profile", *profile, "Print a per-pass timing table");
+  return [=] {
+    auto options = options_from(*c);
+    if (!options) return fail_with("render", options.error());
+    options->exposure = *exposure;
+    const auto t0 = std::chrono::steady_clock::now();
+    log::info(weft::format("loading {}", c->scene_path));
+    auto scene = scene::load_scene(c->scene_path);
+    if (!scene) return fail_with("render", scene.error());
+    auto session = open_session("weft-render");
+    if (!session) return fail_with("render", session.error());
+    auto r = renderer::Renderer::create(session->device);
+    if (!r) return fail_with("render", r.error());
+    log::info(weft::format("rendering on {}", session->adapter.info().name));
+    auto frame = r->render(*scene, *options);
+    if (!frame) return fail_with("render", frame.error());
+    for (const auto& w : frame->warnings) log::warn(w);
+    if (auto ok = image::save_png(*output, frame->image); !ok) return fail_with("render", ok.error());
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (*profile) std::printf("%s", frame->stats.format_table().c_str());
+    std::printf("wrote %s (%ux%u) in %.2f s\n", output->c_str(), frame->image.width, frame->image.height, seconds);
+    return 0;
+  };
+}
+
+Command add_graph(CLI::App& app) {
+  auto* sub = app.add_subcommand("graph", "Compile a scene's render graph and print or save it");
+  auto c = std::make_shared<Common>();
+  auto dot = std::make_shared<std::string>();
+  auto dump = std::make_shared<bool>(false);
+  add_common(sub, *c);
+  sub->add_option("--dot", *dot, "Write Graphviz DOT here ('-' for stdout)");
+  sub->add_flag("--dump", *dump, "Print order, lifetimes, memory and barriers");
+  return [=] {
+    auto options = options_from(*c);
+    if (!options) return fail_with("graph", options.error());
+    auto scene = scene::load_scene(c->scene_path);
+    if (!scene) return fail_with("graph", scene.error());
+    auto session = open_session("weft-graph");
+    if (!session) return fail_with("graph", session.error());
+    auto r = renderer::Renderer::create(session->device);
+    if (!r) return fail_with("graph", r.error());
+    auto report = r->describe(*scene, *options);
+    if (!report) return fail_with("graph", report.error());
+    if (*dot == "-") {
+      std::printf("%s", report->dot.c_str());
+    } else if (!dot->empty()) {
+      std::ofstream out(*dot);
+      out << report->dot;
+      if (!out) return fail_with("graph", Error{ErrorKind::Io, weft::format("cannot write '{}'", *dot)});
+      std::printf("wrote %s\n", dot->c_str());
+    }
+    if (*dump) std::printf("%s", report->dump.c_str());
+    std::printf("passes:");
+    for (const auto& p : report->passes) std::printf(" %s", p.c_str());
+    std::printf("\nculled:");
+    for (const auto& p : report->culled_passes) std::printf(" %s", p.c_str());
+    std::printf("%s\n", report->culled_passes.empty() ? " (none)" : "");
+    return 0;
+  };
+}
+
+}  // namespace weft::cli
