@@ -1,0 +1,408 @@
+// The one translation unit that compiles the third-party codecs for weft.image: stb_image
+// and stb_image_write (as static functions, so another library's copy cannot clash) and
+// tinyexr's header-only implementation over zlib. See codecs.h for the interface.
+//
+// tinyexr is compiled from its header rather than linked from Debian's libtinyexr.so: that
+// library is older than the header Debian ships with it (it lacks EXRNumLevels and
+// EXRSetNameAttr, and EXRImage gained fields), so linking it would mismatch the ABI.
+#include "codecs.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <utility>
+#include <vector>
+
+#pragma clang diagnostic push
+#pragma clang diagnostic ignored "-Weverything"
+#define STB_IMAGE_STATIC
+#define STB_IMAGE_IMPLEMENTATION
+#define STBI_NO_STDIO
+#include <stb_image.h>
+#define STB_IMAGE_WRITE_STATIC
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+// No STBI_WRITE_NO_STDIO: it also compiles out stbi_write_hdr_to_func (an stb bug).
+#include <stb_image_write.h>
+#include <zlib.h>
+#define TINYEXR_USE_MINIZ 0
+#define TINYEXR_USE_THREAD 0
+#define TINYEXR_IMPLEMENTATION
+#include <tinyexr.h>
+#pragma clang diagnostic pop
+
+namespace weft::image::codec {
+namespace {
+
+std::string stb_reason(const char* fallback) {
+  const char* reason = stbi_failure_reason();
+  return reason != nullptr && *reason != '\0' ? std::string(reason) : std::string(fallback);
+}
+
+void append_bytes(void* context, void* data, int size) {
+  auto* out = static_cast<std::vector<std::uint8_t>*>(context);
+  const auto* p = static_cast<const std::uint8_t*>(data);
+  out->insert(out->end(), p, p + size);
+}
+
+std::string exr_code_text(int code) {
+  switch (code) {
+    case TINYEXR_ERROR_INVALID_MAGIC_NUMBER: return "not an OpenEXR file (bad magic number)";
+    case TINYEXR_ERROR_INVALID_EXR_VERSION: return "unsupported OpenEXR version";
+    case TINYEXR_ERROR_INVALID_DATA: return "invalid data";
+    case TINYEXR_ERROR_INVALID_FILE: return "invalid file";
+    case TINYEXR_ERROR_INVALID_HEADER: return "invalid header";
+    case TINYEXR_ERROR_UNSUPPORTED_FORMAT: return "unsupported format";
+    case TINYEXR_ERROR_UNSUPPORTED_FEATURE: return "unsupported feature";
+    default: return "error code " + std::to_string(code);
+  }
+}
+
+// tinyexr's message if it gave one (freed here), else the code's meaning.
+std::string exr_reason(int code, const char* err) {
+  std::string text = err != nullptr ? std::string(err) : exr_code_text(code);
+  if (err != nullptr) FreeEXRErrorMessage(err);
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  return text.empty() ? exr_code_text(code) : text;
+}
+
+bool exr_unsupported(int code) {
+  return code == TINYEXR_ERROR_UNSUPPORTED_FORMAT || code == TINYEXR_ERROR_UNSUPPORTED_FEATURE;
+}
+
+// Frees tinyexr's header and image on every path out of decode_exr. The header always:
+// ParseEXRHeaderFromMemory fills it even when it fails. The image only after a successful
+// load: a failed load has freed it already (leaving its pointers dangling).
+struct ExrGuard {
+  EXRHeader header;
+  EXRImage image;
+  bool image_ok = false;
+  ExrGuard() {
+    InitEXRHeader(&header);
+    InitEXRImage(&image);
+  }
+  ~ExrGuard() {
+    if (image_ok) FreeEXRImage(&image);
+    FreeEXRHeader(&header);
+  }
+  ExrGuard(const ExrGuard&) = delete;
+  ExrGuard& operator=(const ExrGuard&) = delete;
+};
+
+float exr_sample(const unsigned char* plane, int pixel_type, std::size_t index) {
+  if (pixel_type == TINYEXR_PIXELTYPE_UINT) {
+    unsigned int v;
+    std::memcpy(&v, plane + index * sizeof v, sizeof v);
+    return static_cast<float>(v);
+  }
+  float v;  // HALF channels were requested as FLOAT
+  std::memcpy(&v, plane + index * sizeof v, sizeof v);
+  return v;
+}
+
+// stb_image (2022) loops forever on an RLE scanline cut short (it reads 0 past the end,
+// a zero-length run) and zero-fills truncated flat data without a word. So walk the pixel
+// stream first, the way stb will; return why it cannot be decoded, or "" to let stb decide
+// (stb reports header errors itself).
+std::string radiance_stream_error(const std::uint8_t* data, std::size_t size) {
+  std::size_t pos = 0;
+  std::string line;
+  auto next_line = [&] {
+    if (pos >= size) return false;
+    const std::size_t start = pos;
+    while (pos < size && data[pos] != '\n') ++pos;
+    line.assign(reinterpret_cast<const char*>(data) + start, pos - start);
+    if (pos < size) ++pos;
+    return true;
+  };
+  if (!next_line()) return {};
+  do {
+    if (!next_line()) return {};
+  } while (!line.empty());
+  if (!next_line()) return {};
+  int h = 0, w = 0;
+  if (std::sscanf(line.c_str(), "-Y %d +X %d", &h, &w) != 2 || h <= 0 || w <= 0) return {};
+
+  const auto width = static_cast<std::uint64_t>(w), pixels = width * static_cast<std::uint64_t>(h);
+  const std::string truncated = "truncated pixel data";
+  auto flat_from = [&](std::uint64_t done) { return size - pos >= (pixels - done) * 4 ? std::string{} : truncated; };
+  if (w < 8 || w >= 32768) return flat_from(0);
+  for (int y = 0; y < h; ++y) {
+    if (size - pos < 4) return truncated;
+    const std::uint8_t c1 = data[pos], c2 = data[pos + 1], hi = data[pos + 2], lo = data[pos + 3];
+    pos += 4;
+    if (c1 != 2 || c2 != 2 || (hi & 0x80) != 0) return flat_from(1);  // stb reads flat from here on
+    if (((hi << 8) | lo) != w) return {};
+    for (int k = 0; k < 4; ++k) {
+      for (int x = 0; x < w;) {
+        if (pos >= size) return truncated;
+        int count = data[pos++];
+        if (count == 0) return "zero-length run in RLE data";
+        const bool run = count > 128;
+        if (run) count -= 128;
+        if (count > w - x) return {};
+        const std::size_t need = run ? 1 : static_cast<std::size_t>(count);
+        if (size - pos < need) return truncated;
+        pos += need;
+        x += count;
+      }
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
+bool is_png(const std::uint8_t* data, std::size_t size) {
+  static constexpr std::uint8_t signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  return size >= sizeof signature && std::memcmp(data, signature, sizeof signature) == 0;
+}
+
+bool is_radiance(const std::uint8_t* data, std::size_t size) {
+  if (size > static_cast<std::size_t>(INT32_MAX)) return false;
+  return stbi_is_hdr_from_memory(data, static_cast<int>(size)) != 0;
+}
+
+Decoded<std::uint8_t> decode_ldr(const std::uint8_t* data, std::size_t size) {
+  Decoded<std::uint8_t> out;
+  if (size > static_cast<std::size_t>(INT32_MAX)) {
+    out.error = "file is larger than 2 GiB";
+    out.unsupported = true;
+    return out;
+  }
+  int w = 0, h = 0, c = 0;
+  stbi_uc* pixels = stbi_load_from_memory(data, static_cast<int>(size), &w, &h, &c, 0);
+  if (pixels == nullptr) {
+    out.error = stb_reason("unknown decoder error");
+    return out;
+  }
+  if (w <= 0 || h <= 0 || c < 1 || c > 4) {  // stb accepts e.g. a Radiance "+X 0"
+    stbi_image_free(pixels);
+    out.error = "bad image size " + std::to_string(w) + "x" + std::to_string(h) + "x" + std::to_string(c);
+    return out;
+  }
+  out.width = w;
+  out.height = h;
+  out.channels = c;
+  out.pixels.assign(pixels, pixels + static_cast<std::size_t>(w) * h * c);
+  stbi_image_free(pixels);
+  return out;
+}
+
+Decoded<float> decode_radiance(const std::uint8_t* data, std::size_t size) {
+  Decoded<float> out;
+  if (size > static_cast<std::size_t>(INT32_MAX)) {
+    out.error = "file is larger than 2 GiB";
+    out.unsupported = true;
+    return out;
+  }
+  if (std::string why = radiance_stream_error(data, size); !why.empty()) {
+    out.error = std::move(why);
+    return out;
+  }
+  int w = 0, h = 0, c = 0;
+  float* pixels = stbi_loadf_from_memory(data, static_cast<int>(size), &w, &h, &c, 0);
+  if (pixels == nullptr) {
+    out.error = stb_reason("unknown decoder error");
+    return out;
+  }
+  if (w <= 0 || h <= 0 || c < 1 || c > 4) {  // stb accepts e.g. a Radiance "+X 0"
+    stbi_image_free(pixels);
+    out.error = "bad image size " + std::to_string(w) + "x" + std::to_string(h) + "x" + std::to_string(c);
+    return out;
+  }
+  out.width = w;
+  out.height = h;
+  out.channels = c;
+  out.pixels.assign(pixels, pixels + static_cast<std::size_t>(w) * h * c);
+  stbi_image_free(pixels);
+  return out;
+}
+
+Decoded<float> decode_exr(const std::uint8_t* data, std::size_t size) {
+  Decoded<float> out;
+  EXRVersion version;
+  int ret = ParseEXRVersionFromMemory(&version, data, size);
+  if (ret != TINYEXR_SUCCESS) {
+    out.error = exr_code_text(ret);
+    return out;
+  }
+  if (version.multipart || version.non_image) {
+    out.error = version.multipart ? "multi-part OpenEXR files are not supported"
+                                  : "deep OpenEXR images are not supported";
+    out.unsupported = true;
+    return out;
+  }
+  ExrGuard exr;
+  const char* err = nullptr;
+  ret = ParseEXRHeaderFromMemory(&exr.header, &version, data, size, &err);
+  if (ret != TINYEXR_SUCCESS) {
+    out.error = exr_reason(ret, err);
+    out.unsupported = exr_unsupported(ret);
+    return out;
+  }
+  for (int i = 0; i < exr.header.num_channels; ++i) {
+    if (exr.header.pixel_types[i] == TINYEXR_PIXELTYPE_HALF) {
+      exr.header.requested_pixel_types[i] = TINYEXR_PIXELTYPE_FLOAT;
+    }
+    if (exr.header.channels[i].x_sampling != 1 || exr.header.channels[i].y_sampling != 1) {
+      out.error = std::string("sub-sampled channel '") + exr.header.channels[i].name + "' is not supported";
+      out.unsupported = true;
+      return out;
+    }
+  }
+  // tinyexr frees a half-decoded image with FreeEXRImage, which walks image.num_channels,
+  // but sets that only on success: set it first so a corrupt file's planes are not leaked.
+  exr.image.num_channels = exr.header.num_channels;
+  ret = LoadEXRImageFromMemory(&exr.image, &exr.header, data, size, &err);
+  if (ret != TINYEXR_SUCCESS) {
+    out.error = exr_reason(ret, err);
+    out.unsupported = exr_unsupported(ret);
+    return out;
+  }
+  exr.image_ok = true;
+
+  // Which stored channel feeds each of ours: RGB(A), Y(A), or one channel of any name.
+  const int n = exr.header.num_channels;
+  auto find = [&](const char* name) {
+    for (int i = 0; i < n; ++i) {
+      if (std::strcmp(exr.header.channels[i].name, name) == 0) return i;
+    }
+    return -1;
+  };
+  const int r = find("R"), g = find("G"), b = find("B"), a = find("A"), y = find("Y");
+  std::vector<int> source;
+  if (r >= 0 && g >= 0 && b >= 0) {
+    source = {r, g, b};
+    if (a >= 0) source.push_back(a);
+  } else if (y >= 0) {
+    source = {y};
+    if (a >= 0) source.push_back(a);
+  } else if (n == 1) {
+    source = {0};
+  } else {
+    std::string names;
+    for (int i = 0; i < n; ++i) names += std::string(i ? ", " : "") + exr.header.channels[i].name;
+    out.error = "channels [" + names + "] are neither RGB(A) nor Y(A)";
+    out.unsupported = true;
+    return out;
+  }
+
+  const int w = exr.image.width, h = exr.image.height;
+  if (w <= 0 || h <= 0) {
+    out.error = "empty data window";
+    return out;
+  }
+  const int c = static_cast<int>(source.size());
+  out.width = w;
+  out.height = h;
+  out.channels = c;
+  out.pixels.assign(static_cast<std::size_t>(w) * h * c, 0.0f);
+  auto put = [&](int px, int py, unsigned char** planes, std::size_t index) {
+    for (int k = 0; k < c; ++k) {
+      const int s = source[static_cast<std::size_t>(k)];
+      out.pixels[(static_cast<std::size_t>(py) * w + px) * c + k] =
+          exr_sample(planes[s], exr.header.pixel_types[s], index);
+    }
+  };
+  if (exr.header.tiled) {
+    if (exr.image.tiles == nullptr) {
+      out.error = "tiled image without tiles";
+      return out;
+    }
+    const int tw = exr.header.tile_size_x, th = exr.header.tile_size_y;
+    for (int t = 0; t < exr.image.num_tiles; ++t) {
+      const EXRTile& tile = exr.image.tiles[t];
+      for (int j = 0; j < tile.height; ++j) {
+        for (int i = 0; i < tile.width; ++i) {
+          const int px = tile.offset_x * tw + i, py = tile.offset_y * th + j;
+          if (px < 0 || py < 0 || px >= w || py >= h) continue;
+          put(px, py, tile.images, static_cast<std::size_t>(j) * tw + i);
+        }
+      }
+    }
+  } else {
+    for (int py = 0; py < h; ++py) {
+      for (int px = 0; px < w; ++px) put(px, py, exr.image.images, static_cast<std::size_t>(py) * w + px);
+    }
+  }
+  return out;
+}
+
+Encoded encode_png(int width, int height, int channels, const std::uint8_t* pixels) {
+  Encoded out;
+  if (stbi_write_png_to_func(append_bytes, &out.bytes, width, height, channels, pixels, width * channels) == 0) {
+    out.bytes.clear();
+    out.error = "stb_image_write could not encode the PNG";
+  }
+  return out;
+}
+
+Encoded encode_radiance(int width, int height, int channels, const float* pixels) {
+  // RGBE holds non-negative finite values up to 255/256 * 2^127 (8-bit exponent).
+  const float largest = std::ldexp(255.0f / 256.0f, 127);
+  std::vector<float> clean(pixels, pixels + static_cast<std::size_t>(width) * height * channels);
+  for (float& v : clean) v = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, largest);
+  Encoded out;
+  if (stbi_write_hdr_to_func(append_bytes, &out.bytes, width, height, channels, clean.data()) == 0) {
+    out.bytes.clear();
+    out.error = "stb_image_write could not encode the Radiance HDR";
+  }
+  return out;
+}
+
+Encoded encode_exr(int width, int height, int channels, const float* pixels, bool half) {
+  // Channels are stored in alphabetical order, as OpenEXR readers expect.
+  static const char* const names[4][4] = {{"Y"}, {"A", "Y"}, {"B", "G", "R"}, {"A", "B", "G", "R"}};
+  static const int from[4][4] = {{0}, {1, 0}, {2, 1, 0}, {3, 2, 1, 0}};  // our channel for each
+  const auto n = static_cast<std::size_t>(width) * height;
+  std::vector<std::vector<float>> planes(static_cast<std::size_t>(channels), std::vector<float>(n));
+  std::vector<unsigned char*> plane_ptrs(static_cast<std::size_t>(channels));
+  std::vector<EXRChannelInfo> infos(static_cast<std::size_t>(channels));
+  std::vector<int> pixel_types(static_cast<std::size_t>(channels), TINYEXR_PIXELTYPE_FLOAT);
+  std::vector<int> stored_types(static_cast<std::size_t>(channels),
+                                half ? TINYEXR_PIXELTYPE_HALF : TINYEXR_PIXELTYPE_FLOAT);
+  for (int k = 0; k < channels; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    const int src = from[channels - 1][k];
+    for (std::size_t i = 0; i < n; ++i) planes[kk][i] = pixels[i * channels + src];
+    plane_ptrs[kk] = reinterpret_cast<unsigned char*>(planes[kk].data());
+    std::memset(&infos[kk], 0, sizeof infos[kk]);
+    std::strncpy(infos[kk].name, names[channels - 1][k], sizeof infos[kk].name - 1);
+    infos[kk].x_sampling = 1;
+    infos[kk].y_sampling = 1;
+  }
+
+  EXRHeader header;
+  InitEXRHeader(&header);
+  header.num_channels = channels;
+  header.channels = infos.data();
+  header.pixel_types = pixel_types.data();
+  header.requested_pixel_types = stored_types.data();
+  header.compression_type = TINYEXR_COMPRESSIONTYPE_ZIP;
+
+  EXRImage image;
+  InitEXRImage(&image);
+  image.num_channels = channels;
+  image.width = width;
+  image.height = height;
+  image.images = plane_ptrs.data();
+
+  Encoded out;
+  unsigned char* memory = nullptr;
+  const char* err = nullptr;
+  const std::size_t size = SaveEXRImageToMemory(&image, &header, &memory, &err);
+  if (size == 0 || memory == nullptr) {
+    out.error = exr_reason(TINYEXR_ERROR_SERIALZATION_FAILED, err);
+    std::free(memory);
+    return out;
+  }
+  out.bytes.assign(memory, memory + size);
+  std::free(memory);
+  return out;
+}
+
+}  // namespace weft::image::codec
