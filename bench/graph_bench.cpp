@@ -2,7 +2,7 @@
 // transient memory aliasing saves on a realistic frame, and (with a Vulkan device) the
 // per-frame CPU overhead of executing through the graph against recording by hand.
 //
-//   build-release/bin/weft-bench-graph [--runs N] [--no-device]
+//   build-release/bin/weft-bench-graph [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap]
 //
 // Prints markdown tables. Times are medians over --runs runs (default 15) of
 // std::chrono::steady_clock.
@@ -11,7 +11,9 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <functional>
+#include <malloc.h>
 #include <optional>
 #include <random>
 #include <span>
@@ -33,6 +35,14 @@ double median(std::vector<double> v) {
 
 double us_since(Clock::time_point t) { return std::chrono::duration<double, std::micro>(Clock::now() - t).count(); }
 
+// CPU time of this thread: on a shared machine it excludes the time other processes held
+// the core, which wall-clock medians cannot.
+double thread_cpu_us() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return double(t.tv_sec) * 1e6 + double(t.tv_nsec) / 1e3;
+}
+
 // Pass names are made before timing: the graph copies them, the benchmark should not
 // measure std::to_string.
 std::vector<std::string> names(const char* prefix, int n) {
@@ -43,15 +53,16 @@ std::vector<std::string> names(const char* prefix, int n) {
 }
 
 struct Timing {
-  double setup_us = 0, compile_us = 0, total_us = 0;
+  double setup_us = 0, compile_us = 0, total_us = 0, cpu_us = 0;
 };
 
 // A chain: each pass samples the previous pass's texture and renders a new one.
 Timing time_chain(int n, int runs, const std::vector<std::string>& pass_names, const std::vector<std::string>& tex_names) {
-  std::vector<double> setup, compile, total;
+  std::vector<double> setup, compile, total, cpu;
   const gpu::TextureDescriptor output_desc{.label = "output", .size = {1920, 1080, 1}, .format = gpu::Format::RGBA8Unorm,
                                            .usage = gpu::TextureUsage::ColorAttachment};
   for (int run = 0; run < runs; ++run) {
+    const double c0 = thread_cpu_us();
     const auto t0 = Clock::now();
     RenderGraph graph("chain");
     TextureHandle previous;
@@ -71,6 +82,7 @@ Timing time_chain(int n, int runs, const std::vector<std::string>& pass_names, c
     const auto t1 = Clock::now();
     auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
     const auto t2 = Clock::now();
+    cpu.push_back(thread_cpu_us() - c0);
     if (!compiled) {
       std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str());
       std::exit(1);
@@ -79,7 +91,7 @@ Timing time_chain(int n, int runs, const std::vector<std::string>& pass_names, c
     compile.push_back(std::chrono::duration<double, std::micro>(t2 - t1).count());
     total.push_back(std::chrono::duration<double, std::micro>(t2 - t0).count());
   }
-  return {median(setup), median(compile), median(total)};
+  return {median(setup), median(compile), median(total), median(cpu)};
 }
 
 // A random DAG: each pass reads up to three earlier results (fixed seed, chosen before
@@ -114,9 +126,10 @@ DagShape make_dag(int n, std::uint32_t seed) {
 Timing time_dag(const DagShape& shape, int runs, const std::vector<std::string>& pass_names,
                 const std::vector<std::string>& tex_names, std::size_t* culled = nullptr) {
   const int n = int(shape.reads.size());
-  std::vector<double> setup, compile, total;
-  std::vector<TextureHandle> results(std::size_t(n));
+  std::vector<double> setup, compile, total, cpu;
+  std::vector<TextureHandle> results(static_cast<std::size_t>(n));
   for (int run = 0; run < runs; ++run) {
+    const double c0 = thread_cpu_us();
     const auto t0 = Clock::now();
     RenderGraph graph("dag");
     for (int i = 0; i < n; ++i) {
@@ -131,6 +144,7 @@ Timing time_dag(const DagShape& shape, int runs, const std::vector<std::string>&
     const auto t1 = Clock::now();
     auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
     const auto t2 = Clock::now();
+    cpu.push_back(thread_cpu_us() - c0);
     if (!compiled) {
       std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str());
       std::exit(1);
@@ -140,7 +154,7 @@ Timing time_dag(const DagShape& shape, int runs, const std::vector<std::string>&
     compile.push_back(std::chrono::duration<double, std::micro>(t2 - t1).count());
     total.push_back(std::chrono::duration<double, std::micro>(t2 - t0).count());
   }
-  return {median(setup), median(compile), median(total)};
+  return {median(setup), median(compile), median(total), median(cpu)};
 }
 
 // A deferred frame: depth prepass, shadow map, gbuffer, SSAO, lighting, a five-level bloom
@@ -337,33 +351,54 @@ void overhead_table(gpu::Device& device, int runs) {
 int main(int argc, char** argv) {
   int runs = 15;
   bool use_device = true;
+  std::vector<int> sizes{10, 100, 1000, 10000};
+  bool keep_heap = false;
   for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--runs") == 0 && i + 1 < argc) runs = std::max(7, std::atoi(argv[++i]));
-    else if (std::strcmp(argv[i], "--no-device") == 0) use_device = false;
-    else {
-      std::fprintf(stderr, "usage: %s [--runs N] [--no-device]\n", argv[0]);
+    if (std::strcmp(argv[i], "--runs") == 0 && i + 1 < argc) {
+      runs = std::max(7, std::atoi(argv[++i]));
+    } else if (std::strcmp(argv[i], "--sizes") == 0 && i + 1 < argc) {
+      sizes.clear();
+      for (const char* p = argv[++i]; *p;) {
+        sizes.push_back(std::max(1, std::atoi(p)));
+        while (*p && *p != ',') ++p;
+        if (*p == ',') ++p;
+      }
+    } else if (std::strcmp(argv[i], "--no-device") == 0) {
+      use_device = false;
+    } else if (std::strcmp(argv[i], "--keep-heap") == 0) {
+      keep_heap = true;
+    } else {
+      std::fprintf(stderr, "usage: %s [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap]\n", argv[0]);
       return 2;
     }
   }
 
+  if (keep_heap) {
+    // What an engine rebuilding its graph every frame gets from a frame allocator: memory
+    // that stays mapped between frames. glibc otherwise returns the freed top of the heap
+    // to the kernel after every graph, and the next graph pays a page fault per 4 KiB.
+    mallopt(M_TRIM_THRESHOLD, 256 << 20);
+    mallopt(M_MMAP_THRESHOLD, 256 << 20);
+  }
   std::printf("## weft.graph benchmark\n\nSetup (declaring every pass) + compile (validate, cull, order, lifetimes, "
               "aliasing, barriers), median of %d runs.\n\n",
               runs);
-  std::printf("| graph | passes | setup µs | compile µs | setup+compile µs | µs/pass |\n|:--|--:|--:|--:|--:|--:|\n");
-  for (int n : {10, 100, 1000, 10000}) {
+  std::printf("| graph | passes | setup µs | compile µs | setup+compile µs | µs/pass | setup+compile thread-CPU µs |\n"
+              "|:--|--:|--:|--:|--:|--:|--:|\n");
+  for (int n : sizes) {
     const auto pass_names = names("pass", n), tex_names = names("tex", n);
     const int r = n >= 10000 ? std::max(7, runs / 2) : runs;
     const Timing chain = time_chain(n, r, pass_names, tex_names);
-    std::printf("| chain | %d | %.1f | %.1f | %.1f | %.3f |\n", n, chain.setup_us, chain.compile_us, chain.total_us,
-                chain.total_us / n);
+    std::printf("| chain | %d | %.1f | %.1f | %.1f | %.3f | %.1f |\n", n, chain.setup_us, chain.compile_us,
+                chain.total_us, chain.total_us / n, chain.cpu_us);
   }
-  for (int n : {10, 100, 1000, 10000}) {
+  for (int n : sizes) {
     const auto pass_names = names("pass", n), tex_names = names("tex", n);
     const int r = n >= 10000 ? std::max(7, runs / 2) : runs;
     std::size_t culled = 0;
     const Timing dag = time_dag(make_dag(n, 42), r, pass_names, tex_names, &culled);
-    std::printf("| random DAG (%zu culled) | %d | %.1f | %.1f | %.1f | %.3f |\n", culled, n, dag.setup_us, dag.compile_us,
-                dag.total_us, dag.total_us / n);
+    std::printf("| random DAG (%zu culled) | %d | %.1f | %.1f | %.1f | %.3f | %.1f |\n", culled, n, dag.setup_us,
+                dag.compile_us, dag.total_us, dag.total_us / n, dag.cpu_us);
   }
 
   std::printf("\n### Transient memory of a realistic 1920x1080 frame\n\n");

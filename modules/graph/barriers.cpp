@@ -40,7 +40,7 @@ void plan_barriers(const GraphData& graph, CompiledState& state) {
       const ResourceInfo& info = state.resources[r];
       const bool texture = info.type == ResourceType::Texture;
       if (!info.imported && pos == info.first_use) {
-        const std::uint32_t first = state.takeover_begin[r], last = state.takeover_begin[r + 1];
+        const std::uint32_t first = state.takeover_first[r], last = first + state.takeover_count[r];
         if (first == last && texture) state.barriers.push_back(PlannedBarrier{r, gpu::Access::Undefined, a.access});
         for (std::uint32_t t = first; t < last; ++t) {
           const std::uint32_t occupant = state.takeovers[t];

@@ -193,6 +193,8 @@ std::uint32_t declare(GraphData& g, std::uint32_t pass, ResourceType type, std::
   a.access = access;
   a.uses = use;
   a.reads = !write;
+  a.texture = type == ResourceType::Texture;
+  a.imported = g.resources[resource].imported;
   if (write) {
     VersionNode& input = g.versions[slot];
     if (input.next_writer != invalid_index) {

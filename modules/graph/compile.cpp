@@ -3,6 +3,8 @@
 // ordering edges (its version's producer before it; it before the version's next writer).
 module;
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <cstdint>
 #include <expected>
 #include <functional>
@@ -38,6 +40,21 @@ gpu::BufferUsage buffer_usage_of(std::uint16_t uses) {
   for (unsigned bit = 0; bit < 8; ++bit)
     if (uses & (1u << bit)) usage = usage | usage_of(BufferUse(bit));
   return usage;
+}
+
+// The usage bits `format` can never take, from gpu::forbidden_usages, computed once per
+// format (the messages are built only when a texture uses one).
+std::uint32_t forbidden_mask(gpu::Format format) {
+  constexpr std::uint32_t known = 0x8000'0000u;
+  static std::array<std::atomic<std::uint32_t>, 256> cache{};  // racing threads compute the same value
+  std::atomic<std::uint32_t>& entry = cache[std::size_t(format)];
+  std::uint32_t mask = entry.load(std::memory_order_relaxed);
+  if (mask & known) return mask & ~known;
+  mask = 0;
+  for (std::uint32_t bit = 1; bit <= std::uint32_t(gpu::TextureUsage::DepthAttachment); bit <<= 1)
+    if (!gpu::forbidden_usages(format, gpu::TextureUsage(bit)).empty()) mask |= bit;
+  entry.store(mask | known, std::memory_order_relaxed);
+  return mask;
 }
 
 // The usage a texture needs to be put in `state` (an output's final state).
@@ -141,10 +158,9 @@ class Scheduler {
       for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
         const AccessNode& a = g_.accesses[i];
         const VersionNode& v = g_.versions[a.slot];
-        const ResourceNode& res = g_.resources[a.resource];
         resource_uses_[a.resource] |= a.uses;
-        (res.type == ResourceType::Texture ? pass_texture_uses_ : pass_buffer_uses_)[p] |= a.uses;
-        if (a.reads && v.producer == invalid_index && !(res.imported && v.version == 0)) {
+        (a.texture ? pass_texture_uses_ : pass_buffer_uses_)[p] |= a.uses;
+        if (a.reads && v.producer == invalid_index && !(a.imported && v.version == 0)) {
           error(GraphErrorKind::UnwrittenRead,
                 weft::format("pass '{}': reads {} (version {}), which no pass writes and nothing imports", pass.name,
                             g_.describe(a.resource), v.version),
@@ -210,7 +226,7 @@ class Scheduler {
       const PassNode& pass = g_.passes[p];
       bool root = pass.side_effect;
       for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end && !root; ++i)
-        root = g_.accesses[i].writes() && g_.resources[g_.accesses[i].resource].imported;
+        root = g_.accesses[i].writes() && g_.accesses[i].imported;
       if (root) keep(p);
     }
     for (const OutputNode& out : g_.outputs) {
@@ -446,9 +462,9 @@ class Scheduler {
         // A storage texture whose memory is taken over leaves GENERAL through a layout that
         // needs Sampled (see release_state()).
         if (!node.imported && gpu::has(info.texture_usage, gpu::TextureUsage::Storage) &&
-            gpu::forbidden_usages(info.format, gpu::TextureUsage::Sampled).empty())
+            !(forbidden_mask(info.format) & std::uint32_t(gpu::TextureUsage::Sampled)))
           info.texture_usage = info.texture_usage | gpu::TextureUsage::Sampled;
-        if (std::string forbidden = gpu::forbidden_usages(info.format, texture_usage_of(uses)); !forbidden.empty()) {
+        if (forbidden_mask(info.format) & std::uint32_t(texture_usage_of(uses))) {
           for (unsigned bit = 0; bit < 8; ++bit) {
             if (!(uses & (1u << bit))) continue;
             const auto use = TextureUse(bit);

@@ -58,10 +58,65 @@ enum class BufferUse : std::uint8_t { Vertex, Index, Uniform, StorageRead, Stora
 
 std::string_view to_string(TextureUse use);
 std::string_view to_string(BufferUse use);
-gpu::Access access_of(TextureUse use);
-gpu::Access access_of(BufferUse use);
-gpu::TextureUsage usage_of(TextureUse use);
-gpu::BufferUsage usage_of(BufferUse use);
+constexpr gpu::Access access_of(TextureUse use) {
+  switch (use) {
+    case TextureUse::Sampled: return gpu::Access::ShaderRead;
+    case TextureUse::StorageRead: return gpu::Access::StorageRead;
+    case TextureUse::StorageWrite: return gpu::Access::StorageWrite;
+    case TextureUse::ColorAttachment: return gpu::Access::ColorAttachment;
+    case TextureUse::DepthAttachment: return gpu::Access::DepthAttachment;
+    case TextureUse::DepthRead: return gpu::Access::DepthRead;
+    case TextureUse::CopySrc: return gpu::Access::CopySrc;
+    case TextureUse::CopyDst: return gpu::Access::CopyDst;
+  }
+  return gpu::Access::Undefined;
+}
+
+constexpr gpu::Access access_of(BufferUse use) {
+  switch (use) {
+    case BufferUse::Vertex: return gpu::Access::VertexBuffer;
+    case BufferUse::Index: return gpu::Access::IndexBuffer;
+    case BufferUse::Uniform: return gpu::Access::UniformRead;
+    case BufferUse::StorageRead: return gpu::Access::StorageRead;
+    case BufferUse::StorageWrite: return gpu::Access::StorageWrite;
+    case BufferUse::Indirect: return gpu::Access::IndirectBuffer;
+    case BufferUse::CopySrc: return gpu::Access::CopySrc;
+    case BufferUse::CopyDst: return gpu::Access::CopyDst;
+  }
+  return gpu::Access::Undefined;
+}
+
+constexpr gpu::TextureUsage usage_of(TextureUse use) {
+  using U = gpu::TextureUsage;
+  switch (use) {
+    case TextureUse::Sampled: return U::Sampled;
+    case TextureUse::StorageRead:
+    case TextureUse::StorageWrite: return U::Storage;
+    case TextureUse::ColorAttachment: return U::ColorAttachment;
+    case TextureUse::DepthAttachment: return U::DepthAttachment;
+    // A read-only depth attachment that shaders may also sample (Access::DepthRead covers both).
+    case TextureUse::DepthRead: return U::DepthAttachment | U::Sampled;
+    case TextureUse::CopySrc: return U::CopySrc;
+    case TextureUse::CopyDst: return U::CopyDst;
+  }
+  return U::None;
+}
+
+constexpr gpu::BufferUsage usage_of(BufferUse use) {
+  using U = gpu::BufferUsage;
+  switch (use) {
+    case BufferUse::Vertex: return U::Vertex;
+    case BufferUse::Index: return U::Index;
+    case BufferUse::Uniform: return U::Uniform;
+    case BufferUse::StorageRead:
+    case BufferUse::StorageWrite: return U::Storage;
+    case BufferUse::Indirect: return U::Indirect;
+    case BufferUse::CopySrc: return U::CopySrc;
+    case BufferUse::CopyDst: return U::CopyDst;
+  }
+  return U::None;
+}
+
 constexpr bool is_write(TextureUse use) {
   return use == TextureUse::StorageWrite || use == TextureUse::ColorAttachment ||
          use == TextureUse::DepthAttachment || use == TextureUse::CopyDst;
@@ -596,6 +651,8 @@ struct AccessNode {
   gpu::Access access = gpu::Access::Undefined;
   std::uint16_t uses = 0;  // use bits
   bool reads = false;
+  bool texture = false;   // copies of the resource's type and import flag: compile's hot loops
+  bool imported = false;  // then never touch the (large) resource records
   [[nodiscard]] bool writes() const { return out_slot != invalid_index; }
 };
 
@@ -647,8 +704,9 @@ struct CompiledState {
   std::vector<ResourceInfo> resources;
   std::vector<gpu::Access> resource_final_state;  // Undefined: leave as last used
 
-  // Memory: per resource, the transients whose memory it takes over (flattened).
-  std::vector<std::uint32_t> takeover_begin;  // resource_count + 1 entries
+  // Memory: per resource, the transients whose memory it takes over:
+  // takeovers[takeover_first[r] .. takeover_first[r] + takeover_count[r]).
+  std::vector<std::uint32_t> takeover_first, takeover_count;
   std::vector<std::uint32_t> takeovers;
   MemoryPlan memory;
 

@@ -29,51 +29,77 @@ gpu::TextureDescriptor texture_descriptor(const ResourceInfo& r) {
                                 r.dimension};
 }
 
-// A heap's address space as consecutive segments covering [0, size): who used each range
-// last, and whether that resource is still alive.
+struct Range {
+  std::uint64_t begin, end;
+};
+
+// Who used each byte range of a heap last: consecutive segments covering [0, size).
 struct Segment {
   std::uint64_t begin, end;
   std::uint32_t occupant;  // invalid_index: never used
-  bool live;
 };
 
 struct HeapBuilder {
   ResourceType type;
   std::uint32_t type_bits;
   std::uint64_t size = 0;
+  std::vector<Range> free;  // dead memory inside [0, size): sorted, coalesced
   std::vector<Segment> segments;
 
-  // Best fit among the free runs (consecutive segments whose occupants are dead), else the
-  // end of the heap, growing it.
+  // Best fit among the free runs, else at the end of the heap (growing it, starting inside
+  // the trailing free run when there is one).
   std::uint64_t place(std::uint64_t bytes, std::uint64_t alignment) {
     constexpr std::uint64_t none = ~0ull;
-    std::uint64_t best = none, best_waste = none;
-    std::uint64_t trailing_begin = size;  // where the free run that ends the heap starts
-    std::size_t i = 0;
-    while (i < segments.size()) {
-      if (segments[i].live) {
-        ++i;
-        continue;
-      }
-      const std::uint64_t run_begin = segments[i].begin;
-      while (i < segments.size() && !segments[i].live) ++i;
-      const std::uint64_t run_end = segments[i - 1].end;
-      if (i == segments.size()) trailing_begin = run_begin;
-      const std::uint64_t at = align_up(run_begin, alignment);
-      if (at + bytes <= run_end && run_end - run_begin < best_waste) {
+    std::uint64_t best = none, best_size = none;
+    for (const Range& f : free) {
+      const std::uint64_t at = align_up(f.begin, alignment);
+      if (at + bytes <= f.end && f.end - f.begin < best_size) {
         best = at;
-        best_waste = run_end - run_begin;
+        best_size = f.end - f.begin;
       }
     }
-    if (best == none) best = align_up(trailing_begin, alignment);
-    if (best + bytes > size) {
-      if (segments.empty() || segments.back().live)
-        segments.push_back(Segment{size, best + bytes, invalid_index, false});
-      else
-        segments.back().end = best + bytes;
-      size = best + bytes;
+    if (best == none) {
+      const bool trailing = !free.empty() && free.back().end == size;
+      best = align_up(trailing ? free.back().begin : size, alignment);
+      const std::uint64_t grown = best + bytes;
+      if (trailing) free.back().end = grown;
+      else free.push_back(Range{size, grown});
+      segments.push_back(Segment{size, grown, invalid_index});
+      size = grown;
+    }
+    // Carve [best, best + bytes) out of the free run holding it.
+    auto run = std::upper_bound(free.begin(), free.end(), best, [](std::uint64_t x, const Range& r) { return x < r.begin; });
+    --run;
+    const Range whole = *run;
+    const Range left{whole.begin, best}, right{best + bytes, whole.end};
+    if (left.end > left.begin && right.end > right.begin) {
+      *run = left;
+      free.insert(run + 1, right);
+    } else if (left.end > left.begin) {
+      *run = left;
+    } else if (right.end > right.begin) {
+      *run = right;
+    } else {
+      free.erase(run);
     }
     return best;
+  }
+
+  void release(std::uint64_t offset, std::uint64_t bytes) {
+    Range r{offset, offset + bytes};
+    auto at = std::upper_bound(free.begin(), free.end(), offset, [](std::uint64_t x, const Range& f) { return x < f.begin; });
+    const bool join_previous = at != free.begin() && (at - 1)->end == r.begin;
+    const bool join_next = at != free.end() && at->begin == r.end;
+    if (join_previous && join_next) {
+      (at - 1)->end = at->end;
+      free.erase(at);
+    } else if (join_previous) {
+      (at - 1)->end = r.end;
+    } else if (join_next) {
+      at->begin = r.begin;
+    } else {
+      free.insert(at, r);
+    }
   }
 
   // Marks [offset, offset + bytes) as `resource`'s and appends the previous occupants.
@@ -87,18 +113,19 @@ struct HeapBuilder {
         previous.push_back(last->occupant);
     Segment replacement[3];
     std::size_t n = 0;
-    if (first != last && first->begin < offset) replacement[n++] = Segment{first->begin, offset, first->occupant, first->live};
-    replacement[n++] = Segment{offset, end, resource, true};
-    if (first != last && (last - 1)->end > end)
-      replacement[n++] = Segment{end, (last - 1)->end, (last - 1)->occupant, (last - 1)->live};
+    if (first != last && first->begin < offset) replacement[n++] = Segment{first->begin, offset, first->occupant};
+    replacement[n++] = Segment{offset, end, resource};
+    if (first != last && (last - 1)->end > end) replacement[n++] = Segment{end, (last - 1)->end, (last - 1)->occupant};
     const auto at = first - segments.begin();
-    segments.erase(first, last);
-    segments.insert(segments.begin() + at, replacement, replacement + n);
-  }
-
-  void release(std::uint64_t offset) {
-    auto it = std::partition_point(segments.begin(), segments.end(), [&](const Segment& s) { return s.end <= offset; });
-    if (it != segments.end()) it->live = false;
+    const auto removed = last - first;
+    // Overwrite in place where possible: erase + insert would move the tail twice.
+    if (std::ptrdiff_t(n) <= removed) {
+      std::copy(replacement, replacement + n, first);
+      segments.erase(first + std::ptrdiff_t(n), last);
+    } else {
+      std::copy(replacement, replacement + removed, first);
+      segments.insert(segments.begin() + at + removed, replacement + removed, replacement + n);
+    }
   }
 };
 
@@ -143,27 +170,27 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
     info.bytes = 0;
     info.alias_group = invalid_index;
     if (info.imported || !info.used) continue;
-    Result<gpu::MemoryRequirements> req = estimate_requirements(info);
-    if (device != nullptr) {
-      req = info.type == ResourceType::Texture
-                ? device->memory_requirements(texture_descriptor(info))
-                : device->memory_requirements(gpu::BufferDescriptor{std::string(info.name), info.buffer_size,
-                                                                    info.buffer_usage});
-    } else if (info.type == ResourceType::Texture && state.options.texture_requirements) {
-      req = state.options.texture_requirements(texture_descriptor(info));
-    } else if (info.type == ResourceType::Buffer && state.options.buffer_requirements) {
-      req = state.options.buffer_requirements(
-          gpu::BufferDescriptor{std::string(info.name), info.buffer_size, info.buffer_usage});
+    const bool custom = info.type == ResourceType::Texture ? bool(state.options.texture_requirements)
+                                                           : bool(state.options.buffer_requirements);
+    if (device == nullptr && !custom) {
+      requirements[r] = estimate_requirements(info);
+    } else {
+      const gpu::BufferDescriptor buffer_desc{std::string(info.name), info.buffer_size, info.buffer_usage};
+      Result<gpu::MemoryRequirements> req =
+          device != nullptr ? (info.type == ResourceType::Texture ? device->memory_requirements(texture_descriptor(info))
+                                                                  : device->memory_requirements(buffer_desc))
+                            : (info.type == ResourceType::Texture ? state.options.texture_requirements(texture_descriptor(info))
+                                                                  : state.options.buffer_requirements(buffer_desc));
+      if (!req) {
+        errors.push_back(GraphError{GraphErrorKind::Memory,
+                                    weft::format("{}: cannot size its memory: {}", graph.describe(r), req.error().message),
+                                    {}, {std::string(info.name)}});
+        continue;
+      }
+      requirements[r] = *req;
     }
-    if (!req) {
-      errors.push_back(GraphError{GraphErrorKind::Memory,
-                                  weft::format("{}: cannot size its memory: {}", graph.describe(r), req.error().message),
-                                  {}, {std::string(info.name)}});
-      continue;
-    }
-    requirements[r] = *req;
-    info.bytes = req->size;
-    plan.unaliased_bytes += req->size;
+    info.bytes = requirements[r].size;
+    plan.unaliased_bytes += requirements[r].size;
     start_next[r] = start_head[info.first_use];
     start_head[info.first_use] = r;
     end_next[r] = end_head[info.last_use];
@@ -172,9 +199,9 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
 
   std::vector<HeapBuilder> heaps;
   std::vector<std::uint32_t> previous;
-  state.takeover_begin.assign(R + 1, 0);
-  std::vector<std::uint32_t> takeover_first(R, 0), takeover_count(R, 0);
-  std::vector<std::uint32_t> flat;
+  state.takeover_first.assign(R, 0);
+  state.takeover_count.assign(R, 0);
+  state.takeovers.clear();
   for (std::uint32_t pos = 0; pos < positions; ++pos) {
     for (std::uint32_t r = start_head[pos]; r != invalid_index; r = start_next[r]) {
       ResourceInfo& info = state.resources[r];
@@ -190,31 +217,22 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
       h.occupy(offset, req.size, r, previous);
       info.heap = heap;
       info.offset = offset;
-      takeover_first[r] = std::uint32_t(flat.size());
-      takeover_count[r] = std::uint32_t(previous.size());
-      flat.insert(flat.end(), previous.begin(), previous.end());
+      state.takeover_first[r] = std::uint32_t(state.takeovers.size());
+      state.takeover_count[r] = std::uint32_t(previous.size());
+      state.takeovers.insert(state.takeovers.end(), previous.begin(), previous.end());
     }
     if (!state.options.aliasing) continue;
     for (std::uint32_t r = end_head[pos]; r != invalid_index; r = end_next[r])
-      if (state.resources[r].heap != invalid_index) heaps[state.resources[r].heap].release(state.resources[r].offset);
+      if (state.resources[r].heap != invalid_index)
+        heaps[state.resources[r].heap].release(state.resources[r].offset, requirements[r].size);
   }
-
-  // Takeovers grouped by resource index (the barrier planner walks them per resource).
-  state.takeovers.clear();
-  state.takeovers.reserve(flat.size());
-  for (std::uint32_t r = 0; r < R; ++r) {
-    state.takeover_begin[r] = std::uint32_t(state.takeovers.size());
-    state.takeovers.insert(state.takeovers.end(), flat.begin() + takeover_first[r],
-                           flat.begin() + takeover_first[r] + takeover_count[r]);
-  }
-  state.takeover_begin[R] = std::uint32_t(state.takeovers.size());
 
   // Aliasing groups: resources connected by takeovers, numbered by their lowest index.
   if (!state.takeovers.empty()) {
     std::vector<std::uint32_t> parent(R);
     std::iota(parent.begin(), parent.end(), 0u);
     for (std::uint32_t r = 0; r < R; ++r)
-      for (std::uint32_t i = state.takeover_begin[r]; i < state.takeover_begin[r + 1]; ++i) {
+      for (std::uint32_t i = state.takeover_first[r], end = i + state.takeover_count[r]; i < end; ++i) {
         const std::uint32_t a = find_root(parent, r), b = find_root(parent, state.takeovers[i]);
         parent[std::max(a, b)] = std::min(a, b);
       }

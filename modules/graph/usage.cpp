@@ -1,5 +1,4 @@
-// How declared uses translate into barrier states and gpu usage flags, and the names every
-// message uses for them.
+// The names every message uses for uses and pass kinds, and relative sizes.
 module;
 #include <algorithm>
 #include <cstdint>
@@ -45,65 +44,6 @@ std::string_view to_string(PassKind kind) {
     case PassKind::Transfer: return "transfer";
   }
   return "?";
-}
-
-gpu::Access access_of(TextureUse use) {
-  switch (use) {
-    case TextureUse::Sampled: return gpu::Access::ShaderRead;
-    case TextureUse::StorageRead: return gpu::Access::StorageRead;
-    case TextureUse::StorageWrite: return gpu::Access::StorageWrite;
-    case TextureUse::ColorAttachment: return gpu::Access::ColorAttachment;
-    case TextureUse::DepthAttachment: return gpu::Access::DepthAttachment;
-    case TextureUse::DepthRead: return gpu::Access::DepthRead;
-    case TextureUse::CopySrc: return gpu::Access::CopySrc;
-    case TextureUse::CopyDst: return gpu::Access::CopyDst;
-  }
-  return gpu::Access::Undefined;
-}
-
-gpu::Access access_of(BufferUse use) {
-  switch (use) {
-    case BufferUse::Vertex: return gpu::Access::VertexBuffer;
-    case BufferUse::Index: return gpu::Access::IndexBuffer;
-    case BufferUse::Uniform: return gpu::Access::UniformRead;
-    case BufferUse::StorageRead: return gpu::Access::StorageRead;
-    case BufferUse::StorageWrite: return gpu::Access::StorageWrite;
-    case BufferUse::Indirect: return gpu::Access::IndirectBuffer;
-    case BufferUse::CopySrc: return gpu::Access::CopySrc;
-    case BufferUse::CopyDst: return gpu::Access::CopyDst;
-  }
-  return gpu::Access::Undefined;
-}
-
-gpu::TextureUsage usage_of(TextureUse use) {
-  using U = gpu::TextureUsage;
-  switch (use) {
-    case TextureUse::Sampled: return U::Sampled;
-    case TextureUse::StorageRead:
-    case TextureUse::StorageWrite: return U::Storage;
-    case TextureUse::ColorAttachment: return U::ColorAttachment;
-    case TextureUse::DepthAttachment: return U::DepthAttachment;
-    // A read-only depth attachment that shaders may also sample (Access::DepthRead covers both).
-    case TextureUse::DepthRead: return U::DepthAttachment | U::Sampled;
-    case TextureUse::CopySrc: return U::CopySrc;
-    case TextureUse::CopyDst: return U::CopyDst;
-  }
-  return U::None;
-}
-
-gpu::BufferUsage usage_of(BufferUse use) {
-  using U = gpu::BufferUsage;
-  switch (use) {
-    case BufferUse::Vertex: return U::Vertex;
-    case BufferUse::Index: return U::Index;
-    case BufferUse::Uniform: return U::Uniform;
-    case BufferUse::StorageRead:
-    case BufferUse::StorageWrite: return U::Storage;
-    case BufferUse::Indirect: return U::Indirect;
-    case BufferUse::CopySrc: return U::CopySrc;
-    case BufferUse::CopyDst: return U::CopyDst;
-  }
-  return U::None;
 }
 
 gpu::Extent3D TextureSize::resolve(gpu::Extent3D output) const {
