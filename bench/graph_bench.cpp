@@ -157,15 +157,20 @@ Timing time_dag(const DagShape& shape, int runs, const std::vector<std::string>&
   return {median(setup), median(compile), median(total), median(cpu)};
 }
 
-// A deferred frame: depth prepass, shadow map, gbuffer, SSAO, lighting, a five-level bloom
-// chain (down and up), tonemap into the imported output.
+// A deferred frame: depth prepass, shadow map, gbuffer, SSAO, lighting, TAA (with last
+// frame's history imported), depth of field, a five-level bloom chain (down and up),
+// tonemap into an LDR target and FXAA into the imported output.
 void build_realistic_frame(RenderGraph& graph) {
   using F = gpu::Format;
   auto output = graph.import_texture("output",
                                      gpu::TextureDescriptor{.label = "output", .size = {1920, 1080, 1}, .format = F::RGBA8Unorm,
                                                             .usage = gpu::TextureUsage::ColorAttachment},
                                      gpu::Access::Undefined);
-  TextureHandle depth, shadow, albedo, normal, material, ao, hdr;
+  auto history = graph.import_texture("taa_history",
+                                      gpu::TextureDescriptor{.label = "taa_history", .size = {1920, 1080, 1},
+                                                             .format = F::RGBA16Float, .usage = gpu::TextureUsage::Sampled},
+                                      gpu::Access::ShaderRead);
+  TextureHandle depth, shadow, albedo, normal, material, ao, hdr, taa, dof, ldr;
   graph.add_pass("depth_prepass", [&](PassBuilder& b) {
     depth = b.write(b.create_texture("depth", {.size = RelativeSize{1.0f}, .format = F::Depth32Float}),
                     TextureUse::DepthAttachment);
@@ -190,8 +195,18 @@ void build_realistic_frame(RenderGraph& graph) {
     b.read(depth, TextureUse::Sampled);
     hdr = b.write(b.create_texture("hdr", {.size = RelativeSize{1.0f}, .format = F::RGBA16Float}), TextureUse::ColorAttachment);
   });
+  graph.add_pass("taa", [&](PassBuilder& b) {
+    b.read(hdr, TextureUse::Sampled);
+    b.read(history, TextureUse::Sampled);
+    taa = b.write(b.create_texture("taa_color", {.size = RelativeSize{1.0f}, .format = F::RGBA16Float}), TextureUse::StorageWrite);
+  });
+  graph.add_pass("depth_of_field", [&](PassBuilder& b) {
+    b.read(taa, TextureUse::Sampled);
+    b.read(depth, TextureUse::Sampled);
+    dof = b.write(b.create_texture("dof_color", {.size = RelativeSize{1.0f}, .format = F::RGBA16Float}), TextureUse::StorageWrite);
+  });
   std::vector<TextureHandle> down;
-  TextureHandle source = hdr;
+  TextureHandle source = dof;
   float scale = 0.5f;
   for (int level = 0; level < 5; ++level, scale *= 0.5f) {
     graph.add_pass("bloom_down" + std::to_string(level), [&](PassBuilder& b) {
@@ -211,8 +226,12 @@ void build_realistic_frame(RenderGraph& graph) {
     });
   }
   graph.add_pass("tonemap", [&](PassBuilder& b) {
-    b.read(hdr, TextureUse::Sampled);
+    b.read(dof, TextureUse::Sampled);
     b.read(source, TextureUse::Sampled);
+    ldr = b.write(b.create_texture("ldr", {.size = RelativeSize{1.0f}, .format = F::RGBA8Unorm}), TextureUse::ColorAttachment);
+  });
+  graph.add_pass("fxaa", [&](PassBuilder& b) {
+    b.read(ldr, TextureUse::Sampled);
     output = b.write(output, TextureUse::ColorAttachment);
   });
   graph.mark_output(output);
@@ -402,7 +421,8 @@ int main(int argc, char** argv) {
   }
 
   std::printf("\n### Transient memory of a realistic 1920x1080 frame\n\n");
-  std::printf("Depth prepass, 2048² shadow map, gbuffer (3 targets), SSAO, lighting, 5-level bloom down/up, tonemap.\n\n");
+  std::printf("Depth prepass, 2048² shadow map, gbuffer (3 targets), SSAO, lighting, TAA, depth of field, 5-level bloom "
+              "down/up, tonemap, FXAA into the imported output.\n\n");
   std::printf("| memory sizes from | without aliasing | with aliasing | saved |\n|:--|--:|--:|--:|\n");
   {
     RenderGraph graph("realistic");
