@@ -299,6 +299,9 @@ Result<VkImageCreateInfo> image_info(const TextureDescriptor& desc, const Adapte
   info.samples = VK_SAMPLE_COUNT_1_BIT;
   info.tiling = VK_IMAGE_TILING_OPTIMAL;
   info.usage = detail::to_vk(desc.usage);
+  // Sampled depth lives in the read-only depth layout, which Vulkan allows only on images
+  // that could be depth attachments; adding the bit costs nothing.
+  if (fi.depth) info.usage |= VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT;
   info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
   if (desc.dimension == TextureDimension::Cube) info.flags |= VK_IMAGE_CREATE_CUBE_COMPATIBLE_BIT;

@@ -80,7 +80,8 @@ std::array<vec4, 9> irradiance_sh(std::span<const float> rgb, std::uint32_t widt
   const double dphi = 2.0 * pi / width, dtheta = pi / double(height);
   for (std::uint32_t y = 0; y < height; ++y) {
     const double theta = (y + 0.5) * dtheta;
-    const double solid_angle = dphi * dtheta * std::sin(theta);
+    // The row's exact solid angle (not sin θ dθ), so even a 2-row map integrates to 4π.
+    const double solid_angle = dphi * (std::cos(y * dtheta) - std::cos((y + 1) * dtheta));
     for (std::uint32_t x = 0; x < width; ++x) {
       // Equirect convention shared with shaders/frame.glsl: u = atan(z, x) / 2π + 0.5, v = θ / π.
       const double phi = ((x + 0.5) / width - 0.5) * 2.0 * pi + rotation_radians;
@@ -96,6 +97,12 @@ std::array<vec4, 9> irradiance_sh(std::span<const float> rgb, std::uint32_t widt
   const double band[9] = {pi, 2 * pi / 3, 2 * pi / 3, 2 * pi / 3, pi / 4, pi / 4, pi / 4, pi / 4, pi / 4};
   std::array<vec4, 9> out{};
   for (int k = 0; k < 9; ++k) out[k] = vec4(vec3(radiance[k] * band[k]), 0.0f);
+  return out;
+}
+
+std::array<vec4, 9> constant_irradiance_sh(vec3 radiance) {
+  std::array<vec4, 9> out{};
+  out[0] = vec4(radiance * (pi / 0.282095f), 0.0f);
   return out;
 }
 

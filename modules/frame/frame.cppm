@@ -85,6 +85,8 @@ static_assert(sizeof(FrameUniforms) % 16 == 0);
 std::array<vec4, 9> irradiance_sh(std::span<const float> rgb, std::uint32_t width, std::uint32_t height,
                                   float rotation_radians = 0.0f);
 vec3 evaluate_sh(const std::array<vec4, 9>& sh, vec3 normal);
+// Exact SH of a constant sky of radiance c: E(n) = π c everywhere.
+std::array<vec4, 9> constant_irradiance_sh(vec3 radiance);
 
 // SPIR-V of shaders/fullscreen.vert: one triangle over the screen at the far plane, `uv` out.
 std::span<const std::uint32_t> fullscreen_vertex_spirv();

@@ -125,7 +125,12 @@ Result<void> Renderer::State::upload_scene(const scene::Scene& scene) {
     if (!t) return std::unexpected(t.error());
     if (auto ok = device->queue().write_texture(*t, std::as_bytes(std::span(texels.rgba))); !ok) return ok;
     environment.emplace(std::move(*t));
-    environment_sh = frame::irradiance_sh(texels.rgb, texels.width, texels.height);
+    // The SH include the rotation; a constant sky gets its exact SH (a 4x2 grid is too coarse
+    // a quadrature for bands 1 and 2).
+    environment_sh = scene.environment.map
+                         ? frame::irradiance_sh(texels.rgb, texels.width, texels.height,
+                                                glm::radians(scene.environment.rotation_degrees))
+                         : frame::constant_irradiance_sh(scene.environment.constant_color);
     environment_key = env_key;
     ++stats.environment_uploads;
   }
@@ -183,14 +188,7 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
   }
   u.environment = vec4(scene.environment.intensity, glm::radians(scene.environment.rotation_degrees), 1.0f, 0.0f);
   u.viewport = vec4(float(w), float(h), 1.0f / float(w), 1.0f / float(h));
-  // SH is of the unrotated map: rotate it by evaluating with rotated normals? Simpler and
-  // exact: recompute for a rotated environment (cheap next to the frame on lavapipe).
   u.irradiance_sh = environment_sh;
-  if (scene.environment.rotation_degrees != 0.0f) {
-    const auto texels = detail::environment_texels(scene.environment);
-    u.irradiance_sh = frame::irradiance_sh(texels.rgb, texels.width, texels.height,
-                                           glm::radians(scene.environment.rotation_degrees));
-  }
   (void)options;
 
   if (!uniforms) {

@@ -41,7 +41,7 @@ frame::MeshData to_mesh_data(const scene::Mesh& mesh) {
 
 std::uint64_t content_hash(const scene::Environment& env) {
   Hasher h;
-  h.value(env.constant_color);
+  h.value(env.constant_color).value(env.rotation_degrees);
   if (env.map) {
     h.value(env.map->width).value(env.map->height).value(env.map->channels);
     h.bytes(env.map->pixels.data(), env.map->pixels.size() * sizeof(float));

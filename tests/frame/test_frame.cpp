@@ -79,3 +79,18 @@ TEST_CASE("the vertex layout covers the 64-byte vertex with locations 0..4") {
   REQUIRE(layout.attributes.size() == 5);
   for (std::uint32_t i = 0; i < 5; ++i) CHECK(layout.attributes[i].location == i);
 }
+
+TEST_CASE("the exact SH of a constant sky gives pi times its radiance in every direction") {
+  const auto sh = frame::constant_irradiance_sh({0.5f, 1.0f, 2.0f});
+  for (vec3 n : {vec3(0, 1, 0), vec3(0, 0, -1), glm::normalize(vec3(1, 1, 1))}) {
+    const vec3 e = frame::evaluate_sh(sh, n);
+    CHECK(e.x == doctest::Approx(0.5f * pi));
+    CHECK(e.z == doctest::Approx(2.0f * pi));
+  }
+}
+
+TEST_CASE("a two-row map integrates to 4 pi: band 0 of a coarse constant sky is exact") {
+  std::vector<float> rgb(4 * 2 * 3, 1.0f);
+  const auto sh = frame::irradiance_sh(rgb, 4, 2);
+  CHECK(sh[0].x == doctest::Approx(frame::constant_irradiance_sh(vec3(1.0f))[0].x).epsilon(1e-5));
+}

@@ -1,0 +1,132 @@
+// The renderer end to end: scene text -> graph of only the needed passes -> image, checked
+// against analytic expectations, under the validation layer.
+#include <doctest/doctest.h>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+#include <unistd.h>
+import weft.core;
+import weft.image;
+import weft.scene;
+import weft.renderer;
+import weft.test.gpu;
+
+using namespace weft;
+
+namespace {
+scene::Scene load(const std::string& json, const std::filesystem::path& base = std::filesystem::temp_directory_path()) {
+  auto desc = scene::parse_scene(json, base);
+  REQUIRE_MESSAGE(desc, (desc ? "" : desc.error().message));
+  auto s = scene::load_scene(*desc);
+  REQUIRE_MESSAGE(s, (s ? "" : s.error().message));
+  return std::move(*s);
+}
+
+renderer::Renderer& shared_renderer() {
+  static auto r = renderer::Renderer::create(weft::test::gpu().device);
+  REQUIRE(r);
+  return *r;
+}
+
+int channel(const image::Image8& img, std::uint32_t x, std::uint32_t y, int c = 0) {
+  return img.pixels[(std::size_t(y) * img.width + x) * img.channels + c];
+}
+
+const char* furnace = R"({
+  "version": 1,
+  "output": {"width": 64, "height": 64},
+  "camera": {"position": [0, 0, 4], "target": [0, 0, 0], "fov": 40},
+  "environment": {"color": [0.5, 0.5, 0.5]},
+  "meshes": {"ball": {"primitive": "sphere", "radius": 1.0}},
+  "materials": {"white": {"type": "standard", "base_color": [1, 1, 1], "roughness": 0.5}},
+  "objects": [{"name": "ball", "mesh": "ball", "material": "white"}]
+})";
+}  // namespace
+
+TEST_CASE("white furnace through the renderer: the sphere vanishes into a constant sky") {
+  auto s = load(furnace);
+  auto frame = shared_renderer().render(s, {.aces = false});
+  REQUIRE_MESSAGE(frame, (frame ? "" : frame.error().message));
+  const int sky = channel(frame->image, 1, 1);
+  CHECK(std::abs(sky - 188) <= 1);
+  int worst = 0;
+  std::uint32_t wx = 0, wy = 0;
+  for (std::uint32_t y = 8; y < 56; ++y)
+    for (std::uint32_t x = 8; x < 56; ++x)
+      if (std::abs(channel(frame->image, x, y) - sky) > worst) {
+        worst = std::abs(channel(frame->image, x, y) - sky);
+        wx = x;
+        wy = y;
+      }
+  CHECK_MESSAGE(worst <= 3, "at (" << wx << ", " << wy << "): " << channel(frame->image, wx, wy) << " vs sky " << sky);
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("a scene with only standard materials and no key light runs only base passes, no shadow map") {
+  auto s = load(furnace);
+  auto report = shared_renderer().describe(s);
+  REQUIRE(report);
+  CHECK(report->passes == std::vector<std::string>{"forward", "background", "tonemap"});
+  CHECK(report->dot.find("digraph") != std::string::npos);
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("a directional light adds the shadow pass; nothing else appears") {
+  std::string json = furnace;
+  json.insert(json.rfind('}'), R"(, "lights": [{"type": "directional", "direction": [0, -1, 0], "intensity": 1}])");
+  auto s = load(json);
+  auto report = shared_renderer().describe(s);
+  REQUIRE(report);
+  CHECK(report->passes == std::vector<std::string>{"shadow_map", "forward", "background", "tonemap"});
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("an OBJ mesh renders where its projection says, lit on the side facing the light") {
+  const auto dir = std::filesystem::temp_directory_path() / ("weft-renderer-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  // A 1x1 quad facing +z at z = 0, spanning [-0.5, 0.5]^2.
+  std::ofstream(dir / "quad.obj") << "v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\nvn 0 0 1\n"
+                                     "f 1//1 2//1 3//1\nf 1//1 3//1 4//1\n";
+  auto s = load(R"({
+    "version": 1, "output": {"width": 80, "height": 80},
+    "camera": {"position": [0, 0, 2], "target": [0, 0, 0], "fov": 60},
+    "lights": [{"type": "directional", "direction": [0, 0, -1], "intensity": 3.14159265}],
+    "meshes": {"quad": {"path": "quad.obj"}},
+    "materials": {"white": {"type": "standard", "base_color": [1, 1, 1], "roughness": 1.0}},
+    "objects": [{"name": "quad", "mesh": "quad", "material": "white"}]
+  })", dir);
+  auto frame = shared_renderer().render(s, {.aces = false});
+  REQUIRE_MESSAGE(frame, (frame ? "" : frame.error().message));
+  // Half-width 0.5 at distance 2 with a 60° field of view covers tan^-1(0.25)/tan(30°) of half the image.
+  const float half_px = 40.0f * 0.25f / std::tan((30.0f * pi / 180.0f));
+  CHECK(channel(frame->image, 40, 40) > 240);                              // lit, facing the light: ~(1-F)
+  CHECK(channel(frame->image, 40 + int(half_px) + 3, 40) == 0);            // beside it: black sky
+  CHECK(channel(frame->image, 40 + int(half_px) - 3, 40) > 240);           // just inside the edge
+  std::filesystem::remove_all(dir);
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("a second frame of the same scene uploads and compiles nothing new") {
+  auto s = load(furnace);
+  auto& r = shared_renderer();
+  REQUIRE(r.render(s));
+  const auto before = r.cache_stats();
+  auto frame = r.render(s);
+  REQUIRE(frame);
+  const auto after = r.cache_stats();
+  CHECK(after.mesh_uploads == before.mesh_uploads);
+  CHECK(after.environment_uploads == before.environment_uploads);
+  CHECK(after.pass_creations == before.pass_creations);
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("bad output sizes are errors, not crashes") {
+  auto s = load(furnace);
+  auto frame = shared_renderer().render(s, {.width = 100000, .height = 10});
+  REQUIRE(!frame);
+  CHECK(frame.error().message.find("100000x10") != std::string::npos);
+}
