@@ -21,7 +21,9 @@ constexpr std::uint64_t estimate_texture_alignment = 64 * 1024;
 constexpr std::uint64_t estimate_buffer_alignment = 256;
 
 constexpr std::uint64_t align_up(std::uint64_t value, std::uint64_t alignment) {
-  return alignment <= 1 ? value : (value + alignment - 1) / alignment * alignment;
+  if (alignment <= 1) return value;
+  if ((alignment & (alignment - 1)) == 0) return (value + alignment - 1) & ~(alignment - 1);  // Vulkan's case
+  return (value + alignment - 1) / alignment * alignment;
 }
 
 gpu::TextureDescriptor texture_descriptor(const ResourceInfo& r) {
