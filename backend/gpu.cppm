@@ -306,11 +306,14 @@ class Texture {
   [[nodiscard]] Extent3D size() const { return desc_.size; }
   [[nodiscard]] Format format() const { return desc_.format; }
   [[nodiscard]] TextureUsage usage() const { return desc_.usage; }
-  // The view of every mip and layer, created with the texture.
+  // The view of every mip and layer, created with the texture (an empty view when the
+  // texture can only be copied: Vulkan allows no views of such images).
   [[nodiscard]] const TextureView& view() const { return *default_view_; }
   Result<TextureView> create_view(const TextureViewDescriptor& desc) const;
   // The state the last recorded barrier left it in (for CommandEncoder::transition).
   [[nodiscard]] Access state() const { return state_; }
+  // Overrides the tracked state, e.g. after recorded work was abandoned without submitting.
+  void assume_state(Access state) const { state_ = state; }
 
  private:
   Texture() = default;

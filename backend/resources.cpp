@@ -351,9 +351,15 @@ Result<Texture> Device::create_texture(const TextureDescriptor& desc, Placement 
     texture.allocation_ = std::move(*alloc);
     vkBindImageMemory(shared_->device, texture.image_, texture.allocation_->memory, 0);
   }
-  auto view = texture.create_view({0, desc.mip_level_count});
-  if (!view) return std::unexpected(view.error());
-  texture.default_view_ = std::make_unique<TextureView>(std::move(*view));
+  const TextureUsage viewable = TextureUsage::Sampled | TextureUsage::Storage | TextureUsage::ColorAttachment |
+                                TextureUsage::DepthAttachment;
+  if (any(desc.usage & viewable)) {
+    auto view = texture.create_view({0, desc.mip_level_count});
+    if (!view) return std::unexpected(view.error());
+    texture.default_view_ = std::make_unique<TextureView>(std::move(*view));
+  } else {
+    texture.default_view_.reset(new TextureView());
+  }
   texture.fix_view_back_pointer();
   return texture;
 }
