@@ -5,6 +5,7 @@ module;
 #include <cstring>
 #include <expected>
 #include <memory>
+#include <map>
 #include <optional>
 #include <span>
 #include <string>
@@ -25,22 +26,6 @@ import weft.pass.background;
 import weft.pass.tonemap;
 
 namespace weft::renderer {
-
-std::string_view to_string(Quality q) {
-  switch (q) {
-    case Quality::Low: return "low";
-    case Quality::Medium: return "medium";
-    case Quality::High: return "high";
-    case Quality::Reference: return "reference";
-  }
-  return "?";
-}
-
-Result<Quality> quality_from_string(std::string_view name) {
-  for (Quality q : {Quality::Low, Quality::Medium, Quality::High, Quality::Reference})
-    if (to_string(q) == name) return q;
-  return fail(ErrorKind::InvalidArgument, "unknown quality '{}' (low, medium, high, reference)", name);
-}
 
 namespace {
 std::uint32_t shadow_resolution(Quality q) {
@@ -69,15 +54,26 @@ struct Renderer::State {
   std::optional<gpu::Buffer> uniforms;
   std::optional<gpu::Texture> output;
 
+  // Features, created the first time a scene uses their material type.
+  std::map<scene::MaterialType, std::unique_ptr<FeaturePass>> features;
+  std::map<scene::MaterialType, std::vector<std::uint32_t>> feature_objects;
+  std::vector<const frame::GpuMesh*> mesh_table;  // by scene mesh index
+
   // One frame's inputs, kept alive until the graph has executed.
-  std::vector<frame::DrawItem> items;
+  std::vector<frame::DrawItem> items;          // standard materials: the forward pass
+  std::vector<frame::DrawItem> shadow_casters; // every object
   frame::FrameUniforms frame_uniforms;
   std::vector<std::string> warnings;
 
+  FeatureFrame feature_frame(const scene::Scene& scene, scene::MaterialType type, const RenderOptions& options,
+                             std::uint32_t w, std::uint32_t h) {
+    return FeatureFrame{*device, scene, feature_objects.at(type), mesh_table, frame_uniforms, options.quality, w, h};
+  }
   Result<void> ensure_passes(bool key_light, Quality quality);
   Result<void> upload_scene(const scene::Scene& scene);
   Result<void> prepare(const scene::Scene& scene, const RenderOptions& options, std::uint32_t w, std::uint32_t h);
-  Result<std::pair<RenderGraph, TextureHandle>> build_graph(const RenderOptions& options, bool key_light);
+  Result<std::pair<RenderGraph, TextureHandle>> build_graph(const scene::Scene& scene, const RenderOptions& options,
+                                                            bool key_light);
 };
 
 Result<void> Renderer::State::ensure_passes(bool key_light, Quality quality) {
@@ -141,16 +137,26 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
                                       std::uint32_t h) {
   warnings.clear();
   items.clear();
-  for (const auto& object : scene.objects) {
-    const auto& mesh = scene.meshes.at(object.mesh);
+  shadow_casters.clear();
+  feature_objects.clear();
+  mesh_table.clear();
+  for (const auto& mesh : scene.meshes) mesh_table.push_back(&meshes.at(detail::content_hash(mesh)));
+  for (std::uint32_t i = 0; i < scene.objects.size(); ++i) {
+    const auto& object = scene.objects[i];
     const auto& material = scene.materials.at(object.material);
-    frame::DrawItem item{.mesh = &meshes.at(detail::content_hash(mesh)), .model = object.transform};
+    frame::DrawItem item{.mesh = mesh_table.at(object.mesh), .model = object.transform};
     const auto& s = material.standard;
     item.material = {.base_color = s.base_color, .metallic = s.metallic, .roughness = s.roughness, .emissive = s.emissive};
-    if (material.type != scene::MaterialType::Standard)
+    shadow_casters.push_back(item);
+    if (material.type != scene::MaterialType::Standard) {
+      if (detail::feature_factory(material.type)) {
+        feature_objects[material.type].push_back(i);
+        continue;
+      }
       warnings.push_back(weft::format("material '{}' is a {} material; its pass is not in this build yet, so object "
                                       "'{}' is shaded as standard PBR",
                                       material.name, scene::to_string(material.type), object.name));
+    }
     if (!s.base_color_texture.empty() || !s.normal_texture.empty() || !s.metallic_roughness_texture.empty())
       warnings.push_back(weft::format("material '{}': textures are not sampled yet; using its constant factors",
                                       material.name));
@@ -198,6 +204,17 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
     uniforms.emplace(std::move(*b));
   }
   if (auto ok = device->queue().write_buffer(*uniforms, 0, std::as_bytes(std::span(&u, 1))); !ok) return ok;
+  for (const auto& [type, objects] : feature_objects) {
+    auto& feature = features[type];
+    if (!feature) {
+      auto created = detail::feature_factory(type)(*device);
+      if (!created) return with_context(weft::format("creating the {} feature", scene::to_string(type)), created.error());
+      feature = std::move(*created);
+      ++stats.pass_creations;
+    }
+    if (auto ok = feature->prepare(feature_frame(scene, type, options, w, h)); !ok) return ok;
+    for (auto& message : feature->warnings()) warnings.push_back(std::move(message));
+  }
   if (!output || output->size().width != w || output->size().height != h) {
     output.reset();
     auto t = device->create_texture({.label = "output", .size = {w, h, 1}, .format = passes::output_format,
@@ -208,16 +225,23 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
   return {};
 }
 
-Result<std::pair<RenderGraph, TextureHandle>> Renderer::State::build_graph(const RenderOptions& options, bool key_light) {
+Result<std::pair<RenderGraph, TextureHandle>> Renderer::State::build_graph(const scene::Scene& scene,
+                                                                           const RenderOptions& options, bool key_light) {
   RenderGraph graph("frame");
   auto& board = graph.blackboard();
   board.put("frame_uniforms", graph.import_buffer("frame_uniforms", &*uniforms, gpu::Access::UniformRead));
   board.put("environment", graph.import_texture("environment", &*environment, gpu::Access::ShaderRead));
   if (key_light)
-    shadow->add(graph, items, frame_uniforms.light_view_projection);
+    shadow->add(graph, shadow_casters, frame_uniforms.light_view_projection);
   else
     board.put("shadow_map", graph.import_texture("no_shadow", &*no_shadow, gpu::Access::ShaderRead));
   if (auto ok = forward->add(graph, items); !ok) return std::unexpected(ok.error());
+  for (const auto& [type, feature] : features) {
+    if (!feature_objects.contains(type)) continue;  // created for an earlier scene, unused now
+    const auto w = std::uint32_t(frame_uniforms.viewport.x), h = std::uint32_t(frame_uniforms.viewport.y);
+    if (auto ok = feature->add_passes(graph, feature_frame(scene, type, options, w, h)); !ok)
+      return with_context(weft::format("feature '{}'", feature->name()), ok.error());
+  }
   if (auto ok = background->add(graph); !ok) return std::unexpected(ok.error());
   auto out = tonemap->add(graph, graph.import_texture("output", &*output, gpu::Access::Undefined),
                           {.exposure = options.exposure,
@@ -263,7 +287,7 @@ Result<GraphReport> Renderer::describe(const scene::Scene& scene, const RenderOp
   if (auto ok = s.ensure_passes(key, options.quality); !ok) return std::unexpected(ok.error());
   if (auto ok = s.upload_scene(scene); !ok) return std::unexpected(ok.error());
   if (auto ok = s.prepare(scene, options, size->first, size->second); !ok) return std::unexpected(ok.error());
-  auto built = s.build_graph(options, key);
+  auto built = s.build_graph(scene, options, key);
   if (!built) return std::unexpected(built.error());
   auto compiled = built->first.compile({.output_extent = {size->first, size->second, 1}, .device = s.device});
   if (!compiled) return std::unexpected(compiled.error().to_error());
@@ -283,7 +307,7 @@ Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& o
   if (auto ok = s.ensure_passes(key, options.quality); !ok) return std::unexpected(ok.error());
   if (auto ok = s.upload_scene(scene); !ok) return std::unexpected(ok.error());
   if (auto ok = s.prepare(scene, options, w, h); !ok) return std::unexpected(ok.error());
-  auto built = s.build_graph(options, key);
+  auto built = s.build_graph(scene, options, key);
   if (!built) return std::unexpected(built.error());
   auto compiled = built->first.compile({.output_extent = {w, h, 1}, .device = s.device});
   if (!compiled) return std::unexpected(compiled.error().to_error());

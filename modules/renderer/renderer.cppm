@@ -14,12 +14,12 @@ import weft.graph;
 import weft.image;
 import weft.scene;
 import weft.frame;
+export import weft.feature;
 
 export namespace weft::renderer {
 
-enum class Quality : std::uint8_t { Low, Medium, High, Reference };
-std::string_view to_string(Quality quality);
-Result<Quality> quality_from_string(std::string_view name);
+using weft::Quality;
+using weft::quality_from_string;
 
 struct RenderOptions {
   std::uint32_t width = 0, height = 0;  // 0: the scene's output size
@@ -79,4 +79,6 @@ struct EnvironmentTexels {
   std::vector<float> rgb;
 };
 EnvironmentTexels environment_texels(const scene::Environment& env);
+// The factory of the feature that shades a material type (features.cpp), if it is built.
+FeatureFactory feature_factory(scene::MaterialType type);
 }  // namespace weft::renderer::detail
