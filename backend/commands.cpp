@@ -173,38 +173,42 @@ void CommandEncoder::copy_buffer_to_buffer(const Buffer& src, std::uint64_t src_
   vkCmdCopyBuffer(cmd_, src.buffer_, dst.buffer_, 1, &region);
 }
 
+namespace {
+// Validates a buffer<->texture copy of one mip and returns its region, or the error.
+Result<VkBufferImageCopy> texture_copy_region(const Texture& texture, TextureUsage needed, const Buffer& buffer,
+                                              std::uint64_t offset, std::uint32_t mip) {
+  const char* role = needed == TextureUsage::CopyDst ? "destination" : "source";
+  if (!has(texture.usage(), needed))
+    return fail(ErrorKind::InvalidArgument, "copy {} texture '{}' lacks {} usage (has {})", role, texture.label(),
+                to_string(needed), to_string(texture.usage()));
+  if (mip >= texture.descriptor().mip_level_count)
+    return fail(ErrorKind::InvalidArgument, "texture '{}' has no mip {}", texture.label(), mip);
+  if (offset + mip_bytes(texture, mip) > buffer.size())
+    return fail(ErrorKind::InvalidArgument,
+                "buffer '{}' ({} bytes from offset {}) is too small for mip {} of texture '{}' ({} bytes)",
+                buffer.label(), buffer.size(), offset, mip, texture.label(), mip_bytes(texture, mip));
+  VkBufferImageCopy region{};
+  region.bufferOffset = offset;
+  region.imageSubresource = mip_layers(texture, mip);
+  region.imageExtent = mip_extent(texture, mip);
+  return region;
+}
+}  // namespace
+
 void CommandEncoder::copy_buffer_to_texture(const Buffer& src, std::uint64_t src_offset, const Texture& dst,
                                             std::uint32_t mip) {
   if (!check_outside_pass("copy_buffer_to_texture")) return;
-  if (!has(dst.usage(), TextureUsage::CopyDst))
-    return report_error({ErrorKind::InvalidArgument, weft::format("copy destination texture '{}' lacks copy-dst usage (has {})", dst.label(), to_string(dst.usage()))});
-  if (mip >= dst.descriptor().mip_level_count)
-    return report_error({ErrorKind::InvalidArgument, weft::format("texture '{}' has no mip {}", dst.label(), mip)});
-  if (src_offset + mip_bytes(dst, mip) > src.size())
-    return report_error({ErrorKind::InvalidArgument, weft::format("buffer '{}' ({} bytes from offset {}) is too small for mip {} of texture '{}' ({} bytes)",
-                                                                 src.label(), src.size(), src_offset, mip, dst.label(), mip_bytes(dst, mip))});
-  VkBufferImageCopy region{};
-  region.bufferOffset = src_offset;
-  region.imageSubresource = mip_layers(dst, mip);
-  region.imageExtent = mip_extent(dst, mip);
-  vkCmdCopyBufferToImage(cmd_, src.buffer_, dst.image_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+  auto region = texture_copy_region(dst, TextureUsage::CopyDst, src, src_offset, mip);
+  if (!region) return report_error(region.error());
+  vkCmdCopyBufferToImage(cmd_, src.buffer_, dst.image_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &*region);
 }
 
 void CommandEncoder::copy_texture_to_buffer(const Texture& src, const Buffer& dst, std::uint64_t dst_offset,
                                             std::uint32_t mip) {
   if (!check_outside_pass("copy_texture_to_buffer")) return;
-  if (!has(src.usage(), TextureUsage::CopySrc))
-    return report_error({ErrorKind::InvalidArgument, weft::format("copy source texture '{}' lacks copy-src usage (has {})", src.label(), to_string(src.usage()))});
-  if (mip >= src.descriptor().mip_level_count)
-    return report_error({ErrorKind::InvalidArgument, weft::format("texture '{}' has no mip {}", src.label(), mip)});
-  if (dst_offset + mip_bytes(src, mip) > dst.size())
-    return report_error({ErrorKind::InvalidArgument, weft::format("buffer '{}' ({} bytes from offset {}) is too small for mip {} of texture '{}' ({} bytes)",
-                                                                 dst.label(), dst.size(), dst_offset, mip, src.label(), mip_bytes(src, mip))});
-  VkBufferImageCopy region{};
-  region.bufferOffset = dst_offset;
-  region.imageSubresource = mip_layers(src, mip);
-  region.imageExtent = mip_extent(src, mip);
-  vkCmdCopyImageToBuffer(cmd_, src.image_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, dst.buffer_, 1, &region);
+  auto region = texture_copy_region(src, TextureUsage::CopySrc, dst, dst_offset, mip);
+  if (!region) return report_error(region.error());
+  vkCmdCopyImageToBuffer(cmd_, src.image_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, dst.buffer_, 1, &*region);
 }
 
 void CommandEncoder::fill_buffer(const Buffer& buffer, std::uint32_t value, std::uint64_t offset, std::uint64_t size) {

@@ -162,15 +162,20 @@ Result<std::vector<std::uint32_t>> compile_glsl(const ShaderModuleDescriptor& de
   const char* text = source.c_str();
   const char* names = name.c_str();
 
-  // Preprocess first: its output (with includes expanded) is the cache key.
-  std::string preprocessed;
-  {
-    glslang::TShader shader(stage);
+  // The same source, preamble and targets for preprocessing and for compiling.
+  auto configure = [&](glslang::TShader& shader) {
     shader.setStringsWithLengthsAndNames(&text, nullptr, &names, 1);
     shader.setPreamble(preamble.c_str());
     shader.setEnvInput(glslang::EShSourceGlsl, stage, glslang::EShClientVulkan, 100);
     shader.setEnvClient(glslang::EShClientVulkan, glslang::EShTargetVulkan_1_3);
     shader.setEnvTarget(glslang::EShTargetSpv, glslang::EShTargetSpv_1_6);
+  };
+
+  // Preprocess first: its output (with includes expanded) is the cache key.
+  std::string preprocessed;
+  {
+    glslang::TShader shader(stage);
+    configure(shader);
     if (!shader.preprocess(GetDefaultResources(), 460, ECoreProfile, false, false, messages, &preprocessed, includer))
       return fail(ErrorKind::Shader, "{}", tidy_log(name, shader.getInfoLog()));
   }
@@ -194,11 +199,7 @@ Result<std::vector<std::uint32_t>> compile_glsl(const ShaderModuleDescriptor& de
   }
 
   glslang::TShader shader(stage);
-  shader.setStringsWithLengthsAndNames(&text, nullptr, &names, 1);
-  shader.setPreamble(preamble.c_str());
-  shader.setEnvInput(glslang::EShSourceGlsl, stage, glslang::EShClientVulkan, 100);
-  shader.setEnvClient(glslang::EShClientVulkan, glslang::EShTargetVulkan_1_3);
-  shader.setEnvTarget(glslang::EShTargetSpv, glslang::EShTargetSpv_1_6);
+  configure(shader);
   if (!shader.parse(GetDefaultResources(), 460, false, messages, includer))
     return fail(ErrorKind::Shader, "{}", tidy_log(name, shader.getInfoLog()));
   glslang::TProgram program;

@@ -16,7 +16,6 @@ struct BackgroundPass::State {
   gpu::PipelineLayout layout;
   gpu::RenderPipeline pipeline;
   gpu::Sampler sampler;
-  std::vector<gpu::BindGroup> frame_groups;
 };
 
 Result<BackgroundPass> BackgroundPass::create(gpu::Device& device) {
@@ -44,7 +43,7 @@ Result<BackgroundPass> BackgroundPass::create(gpu::Device& device) {
   if (!sampler) return std::unexpected(sampler.error());
   BackgroundPass pass;
   pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*layout), std::move(*pipeline),
-                                              std::move(*sampler), {}});
+                                              std::move(*sampler)});
   return pass;
 }
 
@@ -71,19 +70,18 @@ Result<void> BackgroundPass::add(RenderGraph& graph) const {
         d.color = b.write(*color, TextureUse::ColorAttachment);
       },
       [state](const PassResources& res, const Data& d, PassContext& ctx) {
-        state->frame_groups.clear();
         auto group = ctx.device().create_bind_group(
             {.label = "background",
              .layout = &state->bind_layout,
              .entries = {gpu::bind(0, res.buffer(d.uniforms)), gpu::bind(1, res.view(d.environment), &state->sampler)}});
         if (!group) return ctx.encoder().report_error(group.error());
-        state->frame_groups.push_back(std::move(*group));
+        const auto& frame_group = ctx.keep(std::move(*group));  // alive until the frame is done
         auto pass = ctx.encoder().begin_render_pass(
             {.label = "background",
              .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}},
              .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .read_only = true}});
         pass.set_pipeline(state->pipeline);
-        pass.set_bind_group(0, state->frame_groups.back());
+        pass.set_bind_group(0, frame_group);
         pass.draw(3);
         pass.end();
       });

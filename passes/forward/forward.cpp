@@ -19,7 +19,6 @@ struct ForwardPass::State {
   gpu::RenderPipeline pipeline;
   gpu::Sampler shadow_sampler;
   gpu::Sampler environment_sampler;
-  std::vector<gpu::BindGroup> frame_groups;  // kept until the next frame: the GPU reads them
 };
 
 namespace {
@@ -60,7 +59,7 @@ Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
   if (!environment_sampler) return std::unexpected(environment_sampler.error());
   ForwardPass pass;
   pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*layout), std::move(*pipeline),
-                                              std::move(*shadow_sampler), std::move(*environment_sampler), {}});
+                                              std::move(*shadow_sampler), std::move(*environment_sampler)});
   return pass;
 }
 
@@ -89,20 +88,19 @@ Result<void> ForwardPass::add(RenderGraph& graph, std::span<const frame::DrawIte
                           TextureUse::DepthAttachment);
       },
       [state, items, clear_color](const PassResources& res, const Data& d, PassContext& ctx) {
-        state->frame_groups.clear();
         auto group = ctx.device().create_bind_group(
             {.label = "forward",
              .layout = &state->bind_layout,
              .entries = {gpu::bind(0, res.buffer(d.uniforms)), gpu::bind(1, res.view(d.shadow_map), &state->shadow_sampler),
                          gpu::bind(2, res.view(d.environment), &state->environment_sampler)}});
         if (!group) return ctx.encoder().report_error(group.error());
-        state->frame_groups.push_back(std::move(*group));
+        const auto& frame_group = ctx.keep(std::move(*group));  // alive until the frame is done
         auto pass = ctx.encoder().begin_render_pass(
             {.label = "forward",
              .color_attachments = {{.view = &res.view(d.color), .clear_color = clear_color}},
              .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth)}});
         pass.set_pipeline(state->pipeline);
-        pass.set_bind_group(0, state->frame_groups.back());
+        pass.set_bind_group(0, frame_group);
         for (const auto& item : items) {
           const auto& m = item.material;
           pass.push(DrawConstants{item.model, vec4(m.base_color, m.metallic), vec4(m.roughness, m.emissive)});

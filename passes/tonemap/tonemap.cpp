@@ -17,7 +17,6 @@ struct TonemapPass::State {
   gpu::PipelineLayout layout;
   gpu::RenderPipeline pipeline;
   gpu::Sampler sampler;
-  std::vector<gpu::BindGroup> frame_groups;
 };
 
 namespace {
@@ -44,7 +43,7 @@ Result<TonemapPass> TonemapPass::create(gpu::Device& device) {
   if (!sampler) return std::unexpected(sampler.error());
   TonemapPass pass;
   pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*layout), std::move(*pipeline),
-                                              std::move(*sampler), {}});
+                                              std::move(*sampler)});
   return pass;
 }
 
@@ -63,14 +62,13 @@ Result<TextureHandle> TonemapPass::add(RenderGraph& graph, TextureHandle output,
         d.output = b.write(output, TextureUse::ColorAttachment);
       },
       [state, push](const PassResources& res, const Data& d, PassContext& ctx) {
-        state->frame_groups.clear();
         auto group = ctx.device().create_bind_group(
             {.label = "tonemap", .layout = &state->bind_layout, .entries = {gpu::bind(0, res.view(d.color), &state->sampler)}});
         if (!group) return ctx.encoder().report_error(group.error());
-        state->frame_groups.push_back(std::move(*group));
+        const auto& frame_group = ctx.keep(std::move(*group));  // alive until the frame is done
         auto pass = ctx.encoder().begin_render_pass({.label = "tonemap", .color_attachments = {{.view = &res.view(d.output), .load = gpu::LoadOp::DontCare}}});
         pass.set_pipeline(state->pipeline);
-        pass.set_bind_group(0, state->frame_groups.back());
+        pass.set_bind_group(0, frame_group);
         pass.push(push);
         pass.draw(3);
         pass.end();
