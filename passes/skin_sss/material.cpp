@@ -1,0 +1,117 @@
+// The "skin" material's fields, read with scene::JsonReader so every problem names its JSON
+// path; quality presets pick the LUT size and sample count when the material does not.
+module;
+#include <cstdint>
+#include <expected>
+#include <filesystem>
+#include <initializer_list>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
+module weft.pass.skin_sss;
+import weft.core;
+import weft.scene;
+import weft.feature;
+
+namespace weft::skin {
+
+std::string_view to_string(CurvatureSource c) { return c == CurvatureSource::Vertex ? "vertex" : "screen"; }
+
+std::string_view to_string(DebugView d) {
+  switch (d) {
+    case DebugView::None: return "none";
+    case DebugView::Curvature: return "curvature";
+    case DebugView::Diffuse: return "diffuse";
+    case DebugView::Transmittance: return "transmittance";
+    case DebugView::Thickness: return "thickness";
+  }
+  return "?";
+}
+
+namespace {
+
+struct QualityPreset {
+  std::uint32_t size, samples;
+};
+QualityPreset preset(Quality q) {
+  switch (q) {
+    case Quality::Low: return {64, 128};
+    case Quality::Medium: return {256, 256};
+    case Quality::High: return {512, 512};
+    case Quality::Reference: return {1024, 1024};
+  }
+  return {256, 256};
+}
+
+void read_lut(scene::JsonReader& r, LutParams& lut) {
+  const scene::Range texels{.min = 2, .max = 4096};
+  const auto size = static_cast<std::uint32_t>(r.integer("size", lut.width, texels));
+  lut.width = static_cast<std::uint32_t>(r.integer("width", size, texels));
+  lut.height = static_cast<std::uint32_t>(r.integer("height", size, texels));
+  const std::string range = r.string("range", std::string(to_string(lut.range)), {"penner", "adaptive", "full"});
+  if (auto parsed = integration_range_from_string(range)) lut.range = *parsed;
+  const std::string convention = r.string("convention", "default", {"default", "thesis", "penner"});
+  if (convention == "thesis") lut.convention = thesis_convention;
+  if (convention == "penner") lut.convention = penner_convention;
+  const std::string normalization = r.string("normalization", std::string(to_string(lut.convention.normalization)),
+                                             {"ring", "planar"});
+  lut.convention.normalization = normalization == "planar" ? Normalization::Planar : Normalization::Ring;
+  lut.convention.variance_scale = r.number("variance_scale", lut.convention.variance_scale, {.min = 0.01, .max = 100});
+  lut.max_curvature = r.number("max_curvature", lut.max_curvature, {.min = 0, .max = 10, .min_exclusive = true});
+  lut.samples = static_cast<std::uint32_t>(r.integer("samples", lut.samples, {.min = 2, .max = 65536}));
+  const std::string quadrature = r.string("quadrature", std::string(to_string(lut.quadrature)), {"per-gaussian", "uniform"});
+  lut.quadrature = quadrature == "uniform" ? Quadrature::Uniform : Quadrature::PerGaussian;
+  r.finish();
+}
+
+}  // namespace
+
+Result<SkinMaterial> parse_skin_material(const scene::Material& material, Quality quality) {
+  try {
+    SkinMaterial m;
+    const QualityPreset q = preset(quality);
+    m.lut.width = m.lut.height = q.size;
+    m.lut.samples = q.samples;
+    scene::JsonErrors errors;
+    const std::string path = material.json_path.empty() ? weft::format("$.materials.{}", material.name) : material.json_path;
+    scene::JsonReader r(material.params, path, errors, material.base_dir);
+    if (!r.is_object()) {
+      r.error(weft::format("a skin material is an object, got {}", scene::json_type_name(material.params)));
+    } else {
+      const scene::Range unit{.min = 0, .max = 1};
+      m.albedo = r.vec3_of("albedo", m.albedo, unit);
+      m.albedo_texture = r.path("albedo_texture");
+      m.normal_texture = r.path("normal_texture");
+      m.normal_strength = float(r.number("normal_strength", m.normal_strength, {.min = 0, .max = 10}));
+      m.normal_blur = r.vec3_of("normal_blur", m.normal_blur, unit);
+      m.roughness = float(r.number("roughness", m.roughness, {.min = 0, .max = 1, .min_exclusive = true}));
+      m.specular = float(r.number("specular", m.specular, {.min = 0, .max = 10}));
+      m.mm_per_unit = float(r.number("mm_per_unit", m.mm_per_unit, {.min = 0, .max = 1e9, .min_exclusive = true}));
+      m.curvature_scale = float(r.number("curvature_scale", m.curvature_scale, {.min = 0, .max = 1000}));
+      m.curvature = r.string("curvature", "vertex", {"vertex", "screen"}) == "screen" ? CurvatureSource::Screen
+                                                                                    : CurvatureSource::Vertex;
+      m.transmittance = r.boolean("transmittance", m.transmittance);
+      m.transmittance_scale = float(r.number("transmittance_scale", m.transmittance_scale, {.min = 0, .max = 1000}));
+      m.transmittance_shrink_mm =
+          float(r.number("transmittance_shrink_mm", m.transmittance_shrink_mm, {.min = 0, .max = 1000}));
+      const std::string debug =
+          r.string("debug_view", "none", {"none", "curvature", "diffuse", "transmittance", "thickness"});
+      for (DebugView d : {DebugView::None, DebugView::Curvature, DebugView::Diffuse, DebugView::Transmittance,
+                          DebugView::Thickness})
+        if (to_string(d) == debug) m.debug_view = d;
+      if (auto lut = r.object("lut")) read_lut(*lut, m.lut);
+      r.finish();
+    }
+    if (!errors.empty()) return std::unexpected(errors.to_error(weft::format("skin material '{}'", material.name)));
+    if (auto ok = validate(m.lut); !ok)
+      return with_context(weft::format("skin material '{}' ({}.lut)", material.name, path), ok.error());
+    return m;
+  } catch (const std::exception& e) {
+    return fail(ErrorKind::Parse, "skin material '{}': {}", material.name, e.what());
+  }
+}
+
+}  // namespace weft::skin

@@ -1,0 +1,167 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// SkinSSSPass: pre-integrated subsurface scattering for the key light (one LUT fetch per
+// channel, each with its own blurred normal), Kelemen/Szirmay-Kalos specular with the
+// Beckmann term from the LUT's alpha, transmittance through thin parts from the shadow
+// map's depth (Jimenez et al. 2010), and image-based ambient. Conventions as the forward
+// pass: light_color is the irradiance at normal incidence, so a Lambert surface of albedo a
+// returns a/π E cos θ; the LUT replaces cos θ by D(θ, 1/r). docs/skin.md has the details.
+#include "frame.glsl"
+#include "skin_common.glsl"
+layout(location = 0) in vec3 world_position;
+layout(location = 1) in vec3 world_normal;
+layout(location = 2) in vec4 world_tangent;
+layout(location = 3) in vec2 uv;
+layout(location = 4) in float vertex_curvature;
+layout(location = 0) out vec4 out_color;
+
+const float F0_SKIN = 0.028;
+
+// x in [0, 1] to the coordinate of the texel-centre mapping: the end points hit texel centres.
+vec2 lut_uv(vec2 x) {
+  vec2 size = vec2(textureSize(skin_lut, 0));
+  return (clamp(x, 0.0, 1.0) * (size - 1.0) + 0.5) / size;
+}
+
+float shadow_factor(vec3 p, vec3 n) {
+  vec4 clip = frame.light_view_projection * vec4(p + n * 0.002, 1.0);
+  vec3 ndc = clip.xyz / clip.w;
+  vec2 suv = ndc.xy * 0.5 + 0.5;
+  if (any(lessThan(suv, vec2(0.0))) || any(greaterThan(suv, vec2(1.0))) || ndc.z > 1.0) return 1.0;
+  vec2 texel = 1.0 / vec2(textureSize(shadow_map, 0));
+  float lit = 0.0;
+  for (int y = -1; y <= 1; ++y)
+    for (int x = -1; x <= 1; ++x) lit += texture(shadow_map, vec3(suv + vec2(x, y) * texel, ndc.z));
+  return lit / 9.0;
+}
+
+// World-space distance the light travels inside the object before reaching p: p's light
+// depth minus the shadow map's (the first surface the light meets). The light matrix is
+// orthographic, so depth is linear: its z row's length converts depth to distance.
+float thickness_world(vec3 p, vec3 n) {
+  vec3 q = p - n * draw.transmit.y;
+  vec4 clip = frame.light_view_projection * vec4(q, 1.0);
+  vec3 ndc = clip.xyz / clip.w;
+  vec2 suv = ndc.xy * 0.5 + 0.5;
+  if (any(lessThan(suv, vec2(0.0))) || any(greaterThan(suv, vec2(1.0)))) return 1e9;
+  float occluder = texture(shadow_depth, suv).r;
+  mat4 m = frame.light_view_projection;
+  float per_unit = length(vec3(m[0][2], m[1][2], m[2][2]));
+  return max(ndc.z - occluder, 0.0) / max(per_unit, 1e-20);
+}
+
+// Jimenez et al.'s transmittance profile of d'Eon's Gaussians, s in mm.
+vec3 transmittance_profile(float s) {
+  float s2 = s * s;
+  return vec3(0.233, 0.455, 0.649) * exp(-s2 / 0.0064) + vec3(0.1, 0.336, 0.344) * exp(-s2 / 0.0484) +
+         vec3(0.118, 0.198, 0.0) * exp(-s2 / 0.187) + vec3(0.113, 0.007, 0.007) * exp(-s2 / 0.567) +
+         vec3(0.358, 0.004, 0.0) * exp(-s2 / 1.99) + vec3(0.078, 0.0, 0.0) * exp(-s2 / 7.41);
+}
+
+float fresnel(float v_dot_h, float f0) {
+  float base = 1.0 - clamp(v_dot_h, 0.0, 1.0);
+  float e = base * base * base * base * base;
+  return e + f0 * (1.0 - e);
+}
+
+void main() {
+  int flags = int(draw.transmit.z + 0.5);
+  int debug_view = int(draw.transmit.w + 0.5);
+
+  vec3 ng = normalize(world_normal);
+  vec3 v = normalize(frame.camera_position.xyz - world_position);
+  if (dot(ng, v) < 0.0) ng = -ng;  // two-sided, as the forward pass (open scans show their inside)
+
+  // Detail normal from the normal map, then one normal per channel: red scatters furthest,
+  // so it sees the most blurred (geometric) surface.
+  vec3 nd = ng;
+  if ((flags & FLAG_NORMAL_MAP) != 0) {
+    vec3 t = world_tangent.xyz - ng * dot(ng, world_tangent.xyz);
+    float tl = length(t);
+    if (tl > 1e-8) {
+      t /= tl;
+      vec3 b = cross(ng, t) * (world_tangent.w < 0.0 ? -1.0 : 1.0);
+      vec3 tn = texture(normal_map, uv).xyz * 2.0 - 1.0;
+      tn.xy *= draw.normal_blur.a;
+      nd = normalize(t * tn.x + b * tn.y + ng * max(tn.z, 1e-3));
+    }
+  }
+  vec3 blur = clamp(draw.normal_blur.rgb, 0.0, 1.0);
+  vec3 n_r = normalize(mix(nd, ng, blur.r));
+  vec3 n_g = normalize(mix(nd, ng, blur.g));
+  vec3 n_b = normalize(mix(nd, ng, blur.b));
+
+  // Curvature as the LUT's v in [0, 1]: per vertex, or from screen-space derivatives of the
+  // geometric normal and position (the thesis's per-pixel alternative).
+  float curvature;
+  if ((flags & FLAG_SCREEN_CURVATURE) != 0) {
+    float dp = length(fwidth(world_position));
+    curvature = dp > 0.0 ? length(fwidth(ng)) / dp * draw.params.z : 0.0;
+  } else {
+    curvature = vertex_curvature * draw.params.y;
+  }
+  if (!(curvature >= 0.0)) curvature = 0.0;  // NaN and negatives
+  curvature = min(curvature, 1.0);
+
+  vec3 l = normalize(frame.light_direction.xyz);
+  vec3 light = frame.light_color.rgb;
+  vec3 albedo = draw.albedo_specular.rgb;
+  if ((flags & FLAG_ALBEDO_MAP) != 0) albedo *= texture(albedo_map, uv).rgb;
+
+  vec3 lut;
+  lut.r = texture(skin_lut, lut_uv(vec2(dot(n_r, l) * 0.5 + 0.5, curvature))).r;
+  lut.g = texture(skin_lut, lut_uv(vec2(dot(n_g, l) * 0.5 + 0.5, curvature))).g;
+  lut.b = texture(skin_lut, lut_uv(vec2(dot(n_b, l) * 0.5 + 0.5, curvature))).b;
+
+  // The LUT already darkens the side turned from the light; the shadow map would also find
+  // it self-shadowed and kill the light scattered past the terminator, so shadows apply in
+  // full only where the surface faces the light (N·L >= 0.2).
+  float ngl = dot(ng, l);
+  float shadow = shadow_factor(world_position, ng);
+  float diffuse_shadow = mix(1.0, shadow, smoothstep(0.0, 0.2, ngl));
+  vec3 diffuse = albedo / PI * lut * light * diffuse_shadow;
+
+  // Kelemen/Szirmay-Kalos: N·L ρ_s P(N·H, m) F / |L + V|², divided by π like the diffuse.
+  float specular = 0.0;
+  float ndl = dot(nd, l);
+  if (ndl > 0.0) {
+    vec3 h = l + v;
+    float hh = dot(h, h);
+    if (hh > 1e-12) {
+      vec3 hn = h * inversesqrt(hh);
+      float p = pow(2.0 * texture(skin_lut, lut_uv(vec2(dot(nd, hn), draw.params.x))).a, 10.0);
+      specular = ndl * draw.albedo_specular.a * max(p * fresnel(dot(v, hn), F0_SKIN) / hh, 0.0) / PI * shadow;
+    }
+  }
+
+  // Transmittance through thin parts (Jimenez et al. 2010), for surfaces turned from the light.
+  vec3 transmitted = vec3(0.0);
+  vec3 profile = vec3(0.0);
+  float thickness_mm = 0.0;
+  float back = clamp(0.3 - ngl, 0.0, 1.0);
+  if (draw.transmit.x > 0.0) {
+    thickness_mm = thickness_world(world_position, ng) * draw.params.w;
+    profile = transmittance_profile(thickness_mm * draw.transmit.x) * back;
+    transmitted = albedo / PI * profile * light;
+  }
+
+  // Image-based ambient as the forward pass, with the per-channel normals for the diffuse.
+  float intensity = frame.environment.x, rotation = frame.environment.y;
+  float m = clamp(draw.params.x, 0.045, 1.0);
+  float n_dot_v = max(dot(nd, v), 1e-4);
+  float f_ambient = F0_SKIN + (max(1.0 - m, F0_SKIN) - F0_SKIN) * pow(1.0 - n_dot_v, 5.0);
+  vec3 irradiance = vec3(evaluate_irradiance_sh(frame.irradiance_sh, n_r).r,
+                         evaluate_irradiance_sh(frame.irradiance_sh, n_g).g,
+                         evaluate_irradiance_sh(frame.irradiance_sh, n_b).b) * intensity;
+  vec3 r = reflect(-v, nd);
+  vec3 mirror = texture(environment_map, equirect_uv(r, rotation)).rgb * intensity;
+  vec3 glossy = mix(mirror, evaluate_irradiance_sh(frame.irradiance_sh, r) * intensity / PI, m);
+  vec3 ambient = (1.0 - f_ambient) * albedo * irradiance / PI + f_ambient * glossy;
+
+  vec3 color = diffuse + specular * light + transmitted + ambient;
+  if (debug_view == DEBUG_CURVATURE) color = vec3(curvature);
+  else if (debug_view == DEBUG_DIFFUSE) color = lut;
+  else if (debug_view == DEBUG_TRANSMITTANCE) color = profile;
+  else if (debug_view == DEBUG_THICKNESS) color = vec3(thickness_mm / 10.0);
+  out_color = vec4(color, 1.0);
+}
