@@ -21,6 +21,7 @@ module;
 #include <unordered_map>
 #include <utility>
 #include <vector>
+#include <fmt/format.h>
 #include <glm/glm.hpp>
 #include "openmesh.h"
 module weft.scene;
@@ -218,6 +219,131 @@ struct CornerKeyHash {
   }
 };
 
+// OpenMesh's PLY reader loops forever on a header that ends early or is malformed, so the
+// header is checked against the PLY grammar first: magic, format, then comment/obj_info,
+// element and property lines up to end_header.
+Result<void> check_ply_header(const std::filesystem::path& path) {
+  auto bytes = detail::read_file(path, "mesh file");
+  if (!bytes) return std::unexpected(bytes.error());
+  const std::string_view text(reinterpret_cast<const char*>(bytes->data()), std::min<std::size_t>(bytes->size(), 1 << 16));
+  const auto bad = [&](std::size_t line, std::string_view why) -> Result<void> {
+    return fail(ErrorKind::Parse, "'{}': PLY header line {}: {}", path.string(), line, why);
+  };
+  static constexpr std::string_view types[] = {"char",  "uchar",  "short",   "ushort",  "int",     "uint",
+                                               "float", "double", "int8",    "uint8",   "int16",   "uint16",
+                                               "int32", "uint32", "float32", "float64"};
+  const auto is_type = [&](std::string_view t) { return std::find(std::begin(types), std::end(types), t) != std::end(types); };
+  std::size_t pos = 0, line_number = 0;
+  bool have_element = false;
+  while (true) {
+    const std::size_t end = text.find('\n', pos);
+    if (end == std::string_view::npos) return bad(line_number + 1, "the header has no end_header line");
+    std::string_view line = text.substr(pos, end - pos);
+    pos = end + 1;
+    ++line_number;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    std::vector<std::string_view> words;
+    for (std::size_t i = 0; i < line.size();) {
+      while (i < line.size() && line[i] == ' ') ++i;
+      std::size_t j = i;
+      while (j < line.size() && line[j] != ' ') ++j;
+      if (j > i) words.push_back(line.substr(i, j - i));
+      i = j;
+    }
+    for (char c : line) {
+      if (static_cast<unsigned char>(c) < 0x20 && c != '\t') return bad(line_number, "control character in the header");
+    }
+    if (line_number == 1) {
+      if (line != "ply") return bad(1, "not a PLY file (no 'ply' magic)");
+      continue;
+    }
+    if (line_number == 2) {
+      if (words.size() != 3 || words[0] != "format" ||
+          (words[1] != "ascii" && words[1] != "binary_little_endian" && words[1] != "binary_big_endian") ||
+          words[2] != "1.0") {
+        return bad(2, "expected 'format ascii|binary_little_endian|binary_big_endian 1.0'");
+      }
+      continue;
+    }
+    if (words.empty()) return bad(line_number, "empty line");
+    if (words[0] == "comment" || words[0] == "obj_info") continue;
+    if (words[0] == "end_header") {
+      if (words.size() != 1) return bad(line_number, "text after end_header");
+      if (!have_element) return bad(line_number, "no element declared");
+      return {};
+    }
+    if (words[0] == "element") {
+      if (words.size() != 3 || words[2].empty() || words[2].size() > 10 ||
+          !std::all_of(words[2].begin(), words[2].end(), [](char c) { return c >= '0' && c <= '9'; })) {
+        return bad(line_number, "expected 'element <name> <count>'");
+      }
+      if (std::stoull(std::string(words[2])) > bytes->size()) {
+        return bad(line_number, "the element count is larger than the file could hold");
+      }
+      have_element = true;
+      continue;
+    }
+    if (words[0] == "property") {
+      if (!have_element) return bad(line_number, "a property before any element");
+      const bool scalar = words.size() == 3 && is_type(words[1]);
+      const bool list = words.size() == 5 && words[1] == "list" && is_type(words[2]) && is_type(words[3]);
+      if (!scalar && !list) return bad(line_number, "expected 'property <type> <name>' or 'property list <type> <type> <name>'");
+      continue;
+    }
+    return bad(line_number, "unknown keyword");
+  }
+}
+
+// OpenMesh's OFF reader trusts the counts line (and reads garbage counts from a file that
+// ends before it), looping billions of times; the header is checked first: the OFF keyword
+// with its optional prefixes, then vertex, face and edge counts the file could hold.
+Result<void> check_off_header(const std::filesystem::path& path) {
+  auto bytes = detail::read_file(path, "mesh file");
+  if (!bytes) return std::unexpected(bytes.error());
+  const std::string_view text(reinterpret_cast<const char*>(bytes->data()), bytes->size());
+  const auto bad = [&](std::string_view why) -> Result<void> {
+    return fail(ErrorKind::Parse, "'{}': OFF header: {}", path.string(), why);
+  };
+  std::size_t pos = 0;
+  // The next whitespace-separated word, skipping '#' comments.
+  const auto next_word = [&]() -> std::string_view {
+    while (pos < text.size()) {
+      const char c = text[pos];
+      if (c == '#') {
+        while (pos < text.size() && text[pos] != '\n') ++pos;
+      } else if (c == ' ' || c == '\t' || c == '\r' || c == '\n') {
+        ++pos;
+      } else {
+        break;
+      }
+    }
+    const std::size_t start = pos;
+    while (pos < text.size() && text[pos] != ' ' && text[pos] != '\t' && text[pos] != '\r' && text[pos] != '\n') ++pos;
+    return text.substr(start, pos - start);
+  };
+  std::string_view keyword = next_word();
+  if (keyword.size() < 3 || keyword.substr(keyword.size() - 3) != "OFF") return bad("the file does not start with OFF");
+  std::string_view prefix = keyword.substr(0, keyword.size() - 3);
+  if (prefix.starts_with("ST")) prefix.remove_prefix(2);
+  for (char flag : {'C', 'N', '4', 'n'}) {
+    if (!prefix.empty() && prefix.front() == flag) prefix.remove_prefix(1);
+  }
+  if (!prefix.empty()) return bad(fmt::format("unknown keyword '{}'", keyword));
+  const std::size_t line_end = text.find('\n', pos);
+  const bool binary = text.substr(pos, line_end == std::string_view::npos ? text.size() - pos : line_end - pos).find("BINARY") !=
+                      std::string_view::npos;
+  if (binary) return bad("binary OFF is not read by weft");
+  if (keyword.find('n') != std::string_view::npos) (void)next_word();  // the dimension of nOFF
+  for (const char* what : {"vertex", "face", "edge"}) {
+    const std::string_view word = next_word();
+    if (word.empty() || word.size() > 10 || !std::all_of(word.begin(), word.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+      return bad(fmt::format("expected the {} count, got '{}'", what, word.substr(0, 20)));
+    }
+    if (std::stoull(std::string(word)) > bytes->size()) return bad(fmt::format("the {} count is larger than the file could hold", what));
+  }
+  return {};
+}
+
 Result<Mesh> read_with_openmesh(const std::filesystem::path& path) {
   std::error_code ec;
   const auto size = std::filesystem::file_size(path, ec);
@@ -365,6 +491,11 @@ Result<Mesh> load_mesh(const std::filesystem::path& path, const LoadOptions& opt
     const std::string ext = detail::lowercase_extension(path);
     Result<Mesh> mesh = std::unexpected(Error{});
     if (ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl") {
+      if (ext == ".ply") {
+        if (auto ok = check_ply_header(path); !ok) return std::unexpected(ok.error());
+      } else if (ext == ".off") {
+        if (auto ok = check_off_header(path); !ok) return std::unexpected(ok.error());
+      }
       mesh = read_with_openmesh(path);
     } else if (ext == ".gltf" || ext == ".glb") {
       mesh = merge_gltf(path);
