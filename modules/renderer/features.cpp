@@ -9,11 +9,15 @@ import weft.core;
 import weft.gpu;
 import weft.feature;
 import weft.scene;
+import weft.pass.skin_sss;
+import weft.pass.shell_fur;
 
 namespace weft::renderer::detail {
 
 FeatureFactory feature_factory(scene::MaterialType type) {
   switch (type) {
+    case scene::MaterialType::Fur: return &passes::create_shell_fur_feature;
+    case scene::MaterialType::Skin: return &passes::create_skin_feature;
     default: return nullptr;
   }
 }

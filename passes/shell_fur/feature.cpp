@@ -1,0 +1,195 @@
+// The fur feature: what the renderer creates for scenes with "fur" materials. It parses each
+// material, loads and analyses its photo, builds band tables, generated UVs and fins, caching
+// each by content so a second frame uploads nothing, and adds one ShellFurPass.
+module;
+#include <algorithm>
+#include <cstdint>
+#include <expected>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <utility>
+#include <vector>
+#include <glm/glm.hpp>
+module weft.pass.shell_fur;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+import weft.image;
+import weft.scene;
+import weft.feature;
+
+namespace weft::passes {
+
+namespace {
+
+std::uint64_t mesh_key(const scene::Mesh& mesh) {
+  Hasher h;
+  h.bytes(mesh.positions.data(), mesh.positions.size() * sizeof(vec3));
+  h.bytes(mesh.normals.data(), mesh.normals.size() * sizeof(vec3));
+  h.bytes(mesh.uvs.data(), mesh.uvs.size() * sizeof(vec2));
+  h.bytes(mesh.indices.data(), mesh.indices.size() * sizeof(std::uint32_t));
+  return h.digest();
+}
+
+frame::MeshData mesh_data(const scene::Mesh& mesh) {
+  frame::MeshData out{mesh.name, std::vector<frame::Vertex>(mesh.positions.size()), mesh.indices};
+  for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+    frame::Vertex& v = out.vertices[i];
+    v.position = mesh.positions[i];
+    if (i < mesh.normals.size()) v.normal = mesh.normals[i];
+    if (i < mesh.tangents.size()) v.tangent = mesh.tangents[i];
+    if (i < mesh.uvs.size()) v.uv = mesh.uvs[i];
+    if (i < mesh.curvature.size()) v.curvature = mesh.curvature[i];
+  }
+  return out;
+}
+
+class ShellFurFeature final : public FeaturePass {
+ public:
+  explicit ShellFurFeature(gpu::Device& device, ShellFurPass pass) : device_(&device), pass_(std::move(pass)) {}
+
+  [[nodiscard]] std::string_view name() const override { return "shell_fur"; }
+
+  Result<void> prepare(const FeatureFrame& frame) override {
+    draws_.clear();
+    warnings_.clear();
+    for (const std::uint32_t index : frame.objects) {
+      const scene::Object& object = frame.scene.objects.at(index);
+      const scene::Material& material = frame.scene.materials.at(object.material);
+      auto ok = add_object(frame, object, material);
+      if (!ok) return with_context(weft::format("fur object '{}'", object.name), ok.error());
+    }
+    std::sort(warnings_.begin(), warnings_.end());
+    warnings_.erase(std::unique(warnings_.begin(), warnings_.end()), warnings_.end());
+    return {};
+  }
+
+  Result<void> add_passes(RenderGraph& graph, const FeatureFrame&) override { return pass_.add(graph, draws_); }
+
+  [[nodiscard]] std::vector<std::string> warnings() const override { return warnings_; }
+
+ private:
+  struct PhotoAsset {
+    FurPhoto photo;
+    FurPhotoTexture texture;
+  };
+  struct MeshAsset {
+    std::unique_ptr<frame::GpuMesh> generated;  // the mesh with generated UVs, when it had none
+    std::unique_ptr<FurFins> fins;
+    bool fins_built = false;
+  };
+
+  Result<const PhotoAsset*> photo_for(const FurMaterial& m, const std::string& material_name) {
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(m.photo, ec);
+    const auto time = std::filesystem::last_write_time(m.photo, ec).time_since_epoch().count();
+    const std::uint64_t key = Hasher{}
+                                  .str(m.photo.string())
+                                  .value(size)
+                                  .value(time)
+                                  .value(m.thresholds.low_percentile)
+                                  .value(m.thresholds.high_percentile)
+                                  .digest();
+    if (auto it = photos_.find(key); it != photos_.end()) return it->second.get();
+    auto image = image::load_ldr(m.photo);
+    if (!image) return with_context(weft::format("material '{}': photo", material_name), image.error());
+    auto photo = analyze_fur_photo(*image, m.thresholds);
+    if (!photo) return with_context(weft::format("material '{}'", material_name), photo.error());
+    auto texture = upload_fur_photo(*device_, *photo, m.photo.filename().string());
+    if (!texture) return std::unexpected(texture.error());
+    auto asset = std::make_unique<PhotoAsset>(PhotoAsset{std::move(*photo), std::move(*texture)});
+    return photos_.emplace(key, std::move(asset)).first->second.get();
+  }
+
+  Result<const FurLayerTable*> table_for(const PhotoAsset& photo, const FurMaterial& m) {
+    const std::uint64_t key =
+        Hasher{}.value(&photo).value(photo.photo.i_max).value(photo.photo.i_min).value(m.layers).value(m.layout).digest();
+    if (auto it = tables_.find(key); it != tables_.end()) return it->second.get();
+    auto table = make_band_table(photo.photo.i_max, photo.photo.i_min, m.layers, m.layout);
+    if (!table) return std::unexpected(table.error());
+    auto uploaded = upload_band_table(*device_, std::move(*table), photo.texture.photo.label());
+    if (!uploaded) return std::unexpected(uploaded.error());
+    return tables_.emplace(key, std::make_unique<FurLayerTable>(std::move(*uploaded))).first->second.get();
+  }
+
+  Result<void> add_object(const FeatureFrame& frame, const scene::Object& object, const scene::Material& material) {
+    auto m = parse_fur_material(material, frame.quality);
+    if (!m) return std::unexpected(m.error());
+    auto photo = photo_for(*m, material.name);
+    if (!photo) return std::unexpected(photo.error());
+    for (const auto& note : (*photo)->photo.notes)
+      warnings_.push_back(weft::format("fur material '{}': {}", material.name, note));
+    if ((*photo)->photo.bimodality > 0.85)
+      warnings_.push_back(weft::format(
+          "fur material '{}': the photo's luminance has two separate populations (separability {:.2f}); "
+          "two-coloured fur is the method's weak case: dark patches will sit deep in the fur (docs/fur.md)",
+          material.name, (*photo)->photo.bimodality));
+    auto table = table_for(**photo, *m);
+    if (!table) return std::unexpected(table.error());
+
+    const scene::Mesh& mesh = frame.scene.meshes.at(object.mesh);
+    const frame::GpuMesh* gpu_mesh = frame.meshes[object.mesh];
+    MeshAsset& asset = meshes_[Hasher{}.value(mesh_key(mesh)).value(m->uv_mapping).digest()];
+    const bool generate = !mesh.has_uvs() || m->uv_mapping == FurUvMapping::Planar ||
+                          m->uv_mapping == FurUvMapping::Spherical;
+    scene::Mesh uv_mesh;
+    if (generate) {
+      if (!asset.generated) {
+        uv_mesh = mesh;
+        if (auto ok = generate_fur_uvs(uv_mesh, m->uv_mapping); !ok)
+          return with_context(weft::format("material '{}'", material.name), ok.error());
+        auto uploaded = frame::upload_mesh(*device_, mesh_data(uv_mesh));
+        if (!uploaded) return std::unexpected(uploaded.error());
+        asset.generated = std::make_unique<frame::GpuMesh>(std::move(*uploaded));
+      }
+      gpu_mesh = asset.generated.get();
+      if (!mesh.has_uvs())
+        warnings_.push_back(weft::format("fur material '{}': mesh '{}' has no UVs; the photo is mapped with generated "
+                                         "{} UVs (set \"uv_mapping\" to choose)",
+                                         material.name, mesh.name,
+                                         m->uv_mapping == FurUvMapping::Auto ? "planar or spherical"
+                                                                             : to_string(m->uv_mapping)));
+    }
+    if (m->fins && !asset.fins_built) {
+      const scene::Mesh& source = generate && !uv_mesh.positions.empty() ? uv_mesh : mesh;
+      const auto edges = make_fin_edges(source.positions, source.normals, source.uvs, source.indices);
+      if (!edges.empty()) {
+        auto fins = upload_fins(*device_, edges, mesh.name);
+        if (!fins) return std::unexpected(fins.error());
+        asset.fins = std::make_unique<FurFins>(std::move(*fins));
+      }
+      asset.fins_built = true;
+    }
+    const float diagonal = glm::length(mesh.bounds.empty() ? scene::compute_bounds(mesh.positions).size() : mesh.bounds.size());
+    ShellFurDraw draw{.mesh = gpu_mesh, .model = object.transform, .photo = &(*photo)->texture, .layers = *table,
+                      .fins = m->fins ? asset.fins.get() : nullptr};
+    draw.shading = {.thickness = m->thickness_for(diagonal), .tint = m->tint, .lighting = m->lighting,
+                    .uv_scale = m->uv_scale, .wrap = m->wrap, .comb = m->comb, .lift_degrees = m->lift_degrees,
+                    .specular = m->specular, .shininess = m->shininess, .fin_threshold = m->fin_threshold};
+    draws_.push_back(draw);
+    return {};
+  }
+
+  gpu::Device* device_;
+  ShellFurPass pass_;
+  std::map<std::uint64_t, std::unique_ptr<PhotoAsset>> photos_;
+  std::map<std::uint64_t, std::unique_ptr<FurLayerTable>> tables_;
+  std::map<std::uint64_t, MeshAsset> meshes_;
+  std::vector<ShellFurDraw> draws_;
+  std::vector<std::string> warnings_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<FeaturePass>> create_shell_fur_feature(gpu::Device& device) {
+  auto pass = ShellFurPass::create(device);
+  if (!pass) return std::unexpected(pass.error());
+  return std::unique_ptr<FeaturePass>(std::make_unique<ShellFurFeature>(device, std::move(*pass)));
+}
+
+}  // namespace weft::passes

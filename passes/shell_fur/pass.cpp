@@ -1,0 +1,307 @@
+// ShellFurPass: uploads (photo, band table, fins) and the render pass that draws fur objects.
+module;
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <expected>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+#include "weft_pass_shell_fur_shaders.h"
+module weft.pass.shell_fur;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+
+namespace weft::passes {
+
+namespace {
+
+constexpr gpu::Format color_format = gpu::Format::RGBA16Float;  // the frame's "scene_color"
+constexpr gpu::Format depth_format = gpu::Format::Depth32Float;  // the frame's "scene_depth"
+
+// The push constants of fur_common.glsl (128 bytes, the guaranteed minimum).
+struct FurPush {
+  mat4 model;
+  vec4 tint_thickness;
+  vec4 uv_layers;
+  vec4 hair;
+  vec4 specular;
+};
+static_assert(sizeof(FurPush) == 128);
+
+FurPush push_constants(const ShellFurDraw& d) {
+  const FurShading& s = d.shading;
+  const float lift = s.lift_degrees * pi / 180.0f;
+  return FurPush{d.model,
+                 vec4(s.tint, s.thickness),
+                 vec4(s.uv_scale, float(d.layers->table.layers), s.lighting == FurLighting::Lambert ? 0.0f : 1.0f),
+                 vec4(s.comb ? *s.comb : vec2(0.0f), std::sin(lift), std::cos(lift)),
+                 vec4(s.specular, s.shininess, s.fin_threshold, 0.0f)};
+}
+
+gpu::VertexBufferLayout fin_layout() {
+  using F = gpu::VertexFormat;
+  return {.stride = sizeof(FurFinEdge),
+          .step_mode = gpu::VertexStepMode::Instance,
+          .attributes = {{F::Float32x3, offsetof(FurFinEdge, position_a), 0},
+                         {F::Float32x3, offsetof(FurFinEdge, position_b), 1},
+                         {F::Float32x3, offsetof(FurFinEdge, normal_a), 2},
+                         {F::Float32x3, offsetof(FurFinEdge, normal_b), 3},
+                         {F::Float32x4, offsetof(FurFinEdge, uv_ab), 4},
+                         {F::Float32x3, offsetof(FurFinEdge, face_normal_0), 5},
+                         {F::Float32x3, offsetof(FurFinEdge, face_normal_1), 6}}};
+}
+
+Result<gpu::Texture> upload_texture(gpu::Device& device, std::string label, std::uint32_t w, std::uint32_t h,
+                                    gpu::Format format, std::span<const std::uint8_t> texels) {
+  auto texture = device.create_texture({.label = std::move(label), .size = {w, h, 1}, .format = format,
+                                        .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
+  if (!texture) return std::unexpected(texture.error());
+  if (auto ok = device.queue().write_texture(*texture, std::as_bytes(texels)); !ok) return std::unexpected(ok.error());
+  return std::move(*texture);
+}
+
+std::uint64_t texture_bytes(const gpu::Texture& t) {
+  return std::uint64_t(t.size().width) * t.size().height * gpu::format_info(t.format()).bytes_per_texel;
+}
+
+}  // namespace
+
+std::uint64_t FurPhotoTexture::bytes() const { return texture_bytes(photo) + texture_bytes(orientation); }
+
+std::uint64_t FurLayerTable::bytes() const {
+  std::uint64_t total = bands.size();
+  for (const auto& t : textures) total += texture_bytes(t);
+  return total;
+}
+
+Result<FurPhotoTexture> upload_fur_photo(gpu::Device& device, const FurPhoto& photo, std::string_view label) {
+  if (photo.width == 0 || photo.height == 0 || photo.rgba.size() != photo.texel_count() * 4 ||
+      photo.orientation.size() != photo.texel_count() * 2)
+    return fail(ErrorKind::InvalidArgument, "fur photo '{}': not an analysed photo (use analyze_fur_photo)", label);
+  auto rgba = upload_texture(device, weft::format("{}.photo", label), photo.width, photo.height, gpu::Format::RGBA8Srgb,
+                             photo.rgba);
+  if (!rgba) return std::unexpected(rgba.error());
+  auto orientation = upload_texture(device, weft::format("{}.orientation", label), photo.width, photo.height,
+                                    gpu::Format::RG8Unorm, photo.orientation);
+  if (!orientation) return std::unexpected(orientation.error());
+  return FurPhotoTexture{std::move(*rgba), std::move(*orientation)};
+}
+
+Result<FurLayerTable> upload_band_table(gpu::Device& device, FurBandTable table, std::string_view label,
+                                        const FurPhoto* photo_for_textures) {
+  if (table.gpu.size() != std::size_t(table.layers) + 1 || table.layers == 0)
+    return fail(ErrorKind::InvalidArgument, "fur band table '{}': not made by make_band_table", label);
+  auto bands = device.create_buffer_with_data(
+      {.label = weft::format("{}.bands", label), .usage = gpu::BufferUsage::Storage}, std::as_bytes(std::span(table.gpu)));
+  if (!bands) return std::unexpected(bands.error());
+  std::vector<gpu::Texture> textures;
+  if (photo_for_textures) {
+    const auto layers = make_shell_textures(*photo_for_textures, table);
+    for (std::size_t n = 0; n < layers.size(); ++n) {
+      auto t = upload_texture(device, weft::format("{}.layer{}", label, n), photo_for_textures->width,
+                              photo_for_textures->height, gpu::Format::RGBA8Srgb, layers[n]);
+      if (!t) return std::unexpected(t.error());
+      textures.push_back(std::move(*t));
+    }
+  }
+  return FurLayerTable{std::move(table), std::move(*bands), std::move(textures)};
+}
+
+Result<FurFins> upload_fins(gpu::Device& device, std::span<const FurFinEdge> edges, std::string_view label) {
+  if (edges.empty()) return fail(ErrorKind::InvalidArgument, "fur fins '{}': the mesh has no edges", label);
+  auto buffer = device.create_buffer_with_data({.label = weft::format("{}.fins", label), .usage = gpu::BufferUsage::Vertex},
+                                               std::as_bytes(edges));
+  if (!buffer) return std::unexpected(buffer.error());
+  return FurFins{std::move(*buffer), std::uint32_t(edges.size())};
+}
+
+struct ShellFurPass::State {
+  gpu::BindGroupLayout bind_layout;
+  gpu::PipelineLayout layout;
+  gpu::RenderPipeline shells, fins, naive;
+  gpu::Sampler mirror, repeat, shadow;
+};
+
+Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
+  auto module = [&](std::string_view label, gpu::ShaderStage stage, std::span<const std::uint32_t> spirv) {
+    return device.create_shader_module({.label = std::string(label), .stage = stage, .spirv = spirv});
+  };
+  auto shell_vs = module("shell_fur/shell.vert", gpu::ShaderStage::Vertex, shaders::shell_vert());
+  auto fin_vs = module("shell_fur/fin.vert", gpu::ShaderStage::Vertex, shaders::fin_vert());
+  auto shell_fs = module("shell_fur/shell.frag", gpu::ShaderStage::Fragment, shaders::shell_frag());
+  auto fin_fs = module("shell_fur/fin.frag", gpu::ShaderStage::Fragment, shaders::fin_frag());
+  auto naive_fs = module("shell_fur/shell_naive.frag", gpu::ShaderStage::Fragment, shaders::shell_naive_frag());
+  for (auto* m : {&shell_vs, &fin_vs, &shell_fs, &fin_fs, &naive_fs})
+    if (!*m) return std::unexpected(m->error());
+  using gpu::BindingType;
+  using gpu::ShaderStage;
+  auto bind_layout = device.create_bind_group_layout(
+      {.label = "shell_fur",
+       .entries = {{0, BindingType::UniformBuffer, ShaderStage::Vertex | ShaderStage::Fragment},
+                   {1, BindingType::TextureSampler, ShaderStage::Fragment},
+                   {2, BindingType::TextureSampler, ShaderStage::Fragment},
+                   {3, BindingType::ReadOnlyStorageBuffer, ShaderStage::Fragment},
+                   {4, BindingType::TextureSampler, ShaderStage::Fragment}}});
+  if (!bind_layout) return std::unexpected(bind_layout.error());
+  auto layout = device.create_pipeline_layout(
+      {.label = "shell_fur", .bind_group_layouts = {&*bind_layout}, .push_constant_size = sizeof(FurPush)});
+  if (!layout) return std::unexpected(layout.error());
+  auto pipeline = [&](std::string label, const gpu::ShaderModule& vs, const gpu::ShaderModule& fs,
+                      gpu::VertexBufferLayout vertices) {
+    return device.create_render_pipeline({.label = std::move(label),
+                                          .layout = &*layout,
+                                          .vertex = &vs,
+                                          .fragment = &fs,
+                                          .vertex_buffers = {std::move(vertices)},
+                                          .cull_mode = gpu::CullMode::None,
+                                          .color_targets = {{color_format}},
+                                          .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
+  };
+  auto shells = pipeline("shell_fur.shells", *shell_vs, *shell_fs, frame::vertex_layout());
+  if (!shells) return std::unexpected(shells.error());
+  auto fins = pipeline("shell_fur.fins", *fin_vs, *fin_fs, fin_layout());
+  if (!fins) return std::unexpected(fins.error());
+  auto naive = pipeline("shell_fur.naive", *shell_vs, *naive_fs, frame::vertex_layout());
+  if (!naive) return std::unexpected(naive.error());
+  auto mirror = device.create_sampler({.label = "fur.mirror", .mipmap_filter = gpu::FilterMode::Nearest,
+                                       .address_mode = gpu::AddressMode::MirrorRepeat, .max_lod = 0.0f});
+  auto repeat = device.create_sampler({.label = "fur.repeat", .mipmap_filter = gpu::FilterMode::Nearest,
+                                       .address_mode = gpu::AddressMode::Repeat, .max_lod = 0.0f});
+  auto shadow = device.create_sampler({.label = "fur.shadow", .mipmap_filter = gpu::FilterMode::Nearest,
+                                       .compare = gpu::CompareFunction::LessEqual, .max_lod = 0.0f});
+  for (auto* s : {&mirror, &repeat, &shadow})
+    if (!*s) return std::unexpected(s->error());
+  ShellFurPass pass;
+  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*layout), std::move(*shells),
+                                              std::move(*fins), std::move(*naive), std::move(*mirror),
+                                              std::move(*repeat), std::move(*shadow)});
+  return pass;
+}
+
+Result<void> ShellFurPass::add(RenderGraph& graph, std::span<const ShellFurDraw> draws) const {
+  if (draws.empty()) return {};
+  for (std::size_t i = 0; i < draws.size(); ++i) {
+    const ShellFurDraw& d = draws[i];
+    if (!d.mesh || !d.photo || !d.layers)
+      return fail(ErrorKind::InvalidArgument, "shell_fur: draw {} lacks its mesh, photo or band table", i);
+    if (!(d.shading.thickness >= 0.0f) || !std::isfinite(d.shading.thickness))
+      return fail(ErrorKind::InvalidArgument, "shell_fur: draw {} ('{}') has thickness {}; it must be finite and >= 0", i,
+                  d.mesh->name, d.shading.thickness);
+    if (d.method == FurMethod::PerLayerTextures && d.layers->textures.size() != std::size_t(d.layers->table.layers) + 1)
+      return fail(ErrorKind::InvalidArgument,
+                  "shell_fur: draw {} ('{}') asks for the per-layer texture method, but its band table was uploaded "
+                  "without textures (pass the photo to upload_band_table)",
+                  i, d.mesh->name);
+  }
+  auto& board = graph.blackboard();
+  auto uniforms = board.get<BufferHandle>("frame_uniforms");
+  auto shadow_map = board.get<TextureHandle>("shadow_map");
+  auto color = board.get<TextureHandle>("scene_color");
+  auto depth = board.get<TextureHandle>("scene_depth");
+  for (const Error* e : {uniforms ? nullptr : &uniforms.error(), shadow_map ? nullptr : &shadow_map.error(),
+                         color ? nullptr : &color.error(), depth ? nullptr : &depth.error()})
+    if (e) return std::unexpected(*e);
+
+  // Persistent assets are imported once each, so the graph shows (and orders) them.
+  std::map<const gpu::Texture*, TextureHandle> textures;
+  std::map<const gpu::Buffer*, BufferHandle> buffers;
+  auto import_texture = [&](const gpu::Texture& t) {
+    if (!textures.contains(&t)) textures[&t] = graph.import_texture(t.label(), &t, gpu::Access::ShaderRead);
+  };
+  for (const ShellFurDraw& d : draws) {
+    import_texture(d.photo->photo);
+    import_texture(d.photo->orientation);
+    if (d.method == FurMethod::PerLayerTextures)
+      for (const auto& t : d.layers->textures) import_texture(t);
+    if (!buffers.contains(&d.layers->bands))
+      buffers[&d.layers->bands] = graph.import_buffer(d.layers->bands.label(), &d.layers->bands, gpu::Access::StorageRead);
+  }
+
+  struct Data {
+    BufferHandle uniforms;
+    TextureHandle shadow_map, color, depth;
+    std::map<const gpu::Texture*, TextureHandle> textures;
+    std::map<const gpu::Buffer*, BufferHandle> buffers;
+  };
+  auto state = state_;
+  auto& data = graph.add_pass<Data>(
+      "shell_fur",
+      [&](PassBuilder& b, Data& d) {
+        d.uniforms = b.read(*uniforms, BufferUse::Uniform);
+        d.shadow_map = b.read(*shadow_map, TextureUse::Sampled);
+        for (auto& [texture, handle] : textures) d.textures[texture] = b.read(handle, TextureUse::Sampled);
+        for (auto& [buffer, handle] : buffers) d.buffers[buffer] = b.read(handle, BufferUse::StorageRead);
+        d.color = b.write(*color, TextureUse::ColorAttachment);
+        d.depth = b.write(*depth, TextureUse::DepthAttachment);
+      },
+      [state, draws](const PassResources& res, const Data& d, PassContext& ctx) {
+        auto group_for = [&](const ShellFurDraw& draw, const gpu::Texture& photo) -> const gpu::BindGroup* {
+          const gpu::Sampler& sampler = draw.shading.wrap == FurWrap::Repeat ? state->repeat : state->mirror;
+          auto group = ctx.device().create_bind_group(
+              {.label = "shell_fur",
+               .layout = &state->bind_layout,
+               .entries = {gpu::bind(0, res.buffer(d.uniforms)),
+                           gpu::bind(1, res.view(d.textures.at(&photo)), &sampler),
+                           gpu::bind(2, res.view(d.textures.at(&draw.photo->orientation)), &sampler),
+                           gpu::bind(3, res.buffer(d.buffers.at(&draw.layers->bands))),
+                           gpu::bind(4, res.view(d.shadow_map), &state->shadow)}});
+          if (!group) {
+            ctx.encoder().report_error(group.error());
+            return nullptr;
+          }
+          return &ctx.keep(std::move(*group));
+        };
+        auto pass = ctx.encoder().begin_render_pass(
+            {.label = "shell_fur",
+             .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}},
+             .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .load = gpu::LoadOp::Load}});
+        for (const ShellFurDraw& draw : draws) {
+          const std::uint32_t layers = draw.layers->table.layers;
+          const FurPush push = push_constants(draw);
+          if (draw.method == FurMethod::SinglePhoto) {
+            // Tips first: with h_b = 0 the tips win the depth ties (the photo on the skin).
+            const gpu::BindGroup* group = group_for(draw, draw.photo->photo);
+            if (!group) break;
+            pass.set_pipeline(state->shells);
+            pass.set_bind_group(0, *group);
+            pass.push(push);
+            pass.set_vertex_buffer(0, draw.mesh->vertices);
+            pass.set_index_buffer(draw.mesh->indices);
+            pass.draw_indexed(draw.mesh->index_count, layers + 1);
+          } else {
+            pass.set_pipeline(state->naive);
+            pass.push(push);
+            pass.set_vertex_buffer(0, draw.mesh->vertices);
+            pass.set_index_buffer(draw.mesh->indices);
+            for (std::uint32_t n = 0; n <= layers; ++n) {
+              const gpu::BindGroup* group = group_for(draw, draw.layers->textures[n]);
+              if (!group) break;
+              pass.set_bind_group(0, *group);
+              pass.draw_indexed(draw.mesh->index_count, 1, 0, 0, n);
+            }
+          }
+          if (draw.fins && draw.fins->count > 0 && draw.shading.thickness > 0.0f) {
+            const gpu::BindGroup* group = group_for(draw, draw.photo->photo);
+            if (!group) break;
+            pass.set_pipeline(state->fins);
+            pass.set_bind_group(0, *group);
+            pass.push(push);
+            pass.set_vertex_buffer(0, draw.fins->edges);
+            pass.draw(6, draw.fins->count);
+          }
+        }
+        pass.end();
+      });
+  board.put("scene_color", data.color);
+  board.put("scene_depth", data.depth);
+  return {};
+}
+
+}  // namespace weft::passes

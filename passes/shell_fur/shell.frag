@@ -1,0 +1,6 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#define FUR_SHELL
+#include "frame.glsl"
+#include "fur_common.glsl"
+#include "fur_fragment.glsl"
