@@ -102,7 +102,7 @@ std::size_t compute_curvature_counting(Mesh& mesh) {
   std::vector<std::array<std::uint32_t, 3>> accepted;
   accepted.reserve(triangles.size());
   {
-    om::StreamCapture quiet;  // OpenMesh prints "complex edge/vertex" for every refusal
+    om::QuietStreams quiet;  // OpenMesh prints "complex edge/vertex" for every refusal
     for (const auto& tri : triangles) {
       const auto fh = topology.add_face(handles[tri[0]], handles[tri[1]], handles[tri[2]]);
       if (fh.is_valid()) {

@@ -354,17 +354,14 @@ Result<Mesh> read_with_openmesh(const std::filesystem::path& path) {
   pm.request_halfedge_texcoords2D();
   omio::Options opt = omio::Options::VertexNormal | omio::Options::VertexTexCoord | omio::Options::FaceTexCoord;
   CheckedImporter importer(pm, ec ? std::size_t{1} << 20 : static_cast<std::size_t>(size));
-  std::vector<std::string> messages;
   bool read_ok = false;
   {
-    om::StreamCapture capture;
+    om::QuietStreams quiet;
     read_ok = omio::IOManager().read(path.string(), importer, opt);
-    messages = capture.lines();
   }
-  for (const std::string& m : messages) log::debug(weft::format("OpenMesh ({}): {}", path.filename().string(), m));
   if (!read_ok) {
-    std::string reason = messages.empty() ? std::string("the reader gave up") : messages.back();
-    return fail(ErrorKind::Parse, "'{}': OpenMesh could not read the file: {}", path.string(), reason);
+    return fail(ErrorKind::Parse, "'{}': OpenMesh could not read the file (corrupt, or a variant of the format it does not read)",
+                path.string());
   }
   if (importer.bad_references > 0) {
     return fail(ErrorKind::Parse, "'{}': {} faces or attributes reference vertices that are not in the file (indices out of range)",
