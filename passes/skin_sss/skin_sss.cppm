@@ -69,7 +69,7 @@ inline constexpr ProfileConvention thesis_convention{Normalization::Planar, 1.0}
 inline constexpr ProfileConvention penner_convention{Normalization::Ring, 1.414};
 // The convention weft's LUTs use by default: measured closest to the brute-force sphere
 // reference (docs/skin.md, "Which normalisation").
-inline constexpr ProfileConvention default_convention{Normalization::Ring, 1.0};
+inline constexpr ProfileConvention default_convention{Normalization::Ring, 1.414};
 // The profile as measured: d'Eon's planar Gaussians, variances unscaled (the references).
 inline constexpr ProfileConvention physical_convention{Normalization::Planar, 1.0};
 
