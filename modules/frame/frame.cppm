@@ -61,6 +61,7 @@ struct DrawItem {
   mat4 model{1.0f};
   Feature feature = Feature::Standard;
   StandardMaterial material;    // used by the standard passes; features keep their own
+  const gpu::TextureView* base_color_texture = nullptr;  // sRGB, multiplies base_color; null = white
   std::uint32_t feature_index = 0;  // index into the feature's own material list
 };
 

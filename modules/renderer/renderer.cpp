@@ -47,6 +47,7 @@ struct Renderer::State {
   std::optional<passes::BackgroundPass> background;
   std::optional<passes::TonemapPass> tonemap;
   std::unordered_map<std::uint64_t, frame::GpuMesh> meshes;
+  std::unordered_map<std::string, std::optional<gpu::Texture>> textures;  // by path; empty = failed to load
   std::uint64_t environment_key = 0;
   std::optional<gpu::Texture> environment;
   std::array<vec4, 9> environment_sh{};
@@ -71,6 +72,7 @@ struct Renderer::State {
   }
   Result<void> ensure_passes(bool key_light, Quality quality);
   Result<void> upload_scene(const scene::Scene& scene);
+  const gpu::TextureView* base_color_texture(const scene::Texture& texture, std::string_view material);
   Result<void> prepare(const scene::Scene& scene, const RenderOptions& options, std::uint32_t w, std::uint32_t h);
   Result<std::pair<RenderGraph, TextureHandle>> build_graph(const scene::Scene& scene, const RenderOptions& options,
                                                             bool key_light);
@@ -133,6 +135,44 @@ Result<void> Renderer::State::upload_scene(const scene::Scene& scene) {
   return {};
 }
 
+// The material's base colour map as an sRGB texture, loaded once per path; a map that
+// cannot be loaded is a warning and the material is drawn with its constant colour.
+const gpu::TextureView* Renderer::State::base_color_texture(const scene::Texture& texture, std::string_view material) {
+  if (texture.empty()) return nullptr;
+  if (texture.path.empty()) {
+    warnings.push_back(weft::format("material '{}': embedded textures are not decoded yet; using its constant colour",
+                                    material));
+    return nullptr;
+  }
+  const std::string key = texture.path.string();
+  auto it = textures.find(key);
+  if (it == textures.end()) {
+    std::optional<gpu::Texture> loaded;
+    auto pixels = image::load_ldr(texture.path);
+    if (!pixels) {
+      warnings.push_back(weft::format("material '{}': {}", material, pixels.error().message));
+    } else {
+      std::vector<std::uint8_t> rgba(std::size_t(pixels->width) * pixels->height * 4, 255);
+      for (std::size_t i = 0; i < std::size_t(pixels->width) * pixels->height; ++i)
+        for (std::uint32_t c = 0; c < std::min(pixels->channels, 3u); ++c)
+          rgba[i * 4 + c] = pixels->pixels[i * pixels->channels + (pixels->channels < 3 ? 0 : c)];
+      if (pixels->channels < 3)
+        for (std::size_t i = 0; i < std::size_t(pixels->width) * pixels->height; ++i) rgba[i * 4 + 1] = rgba[i * 4 + 2] = rgba[i * 4];
+      auto t = device->create_texture({.label = key, .size = {pixels->width, pixels->height, 1},
+                                       .format = gpu::Format::RGBA8Srgb,
+                                       .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
+      if (t && device->queue().write_texture(*t, std::as_bytes(std::span(rgba)))) {
+        loaded.emplace(std::move(*t));
+        ++stats.texture_uploads;
+      } else {
+        warnings.push_back(weft::format("material '{}': could not upload '{}'", material, key));
+      }
+    }
+    it = textures.emplace(key, std::move(loaded)).first;
+  }
+  return it->second ? &it->second->view() : nullptr;
+}
+
 Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOptions& options, std::uint32_t w,
                                       std::uint32_t h) {
   warnings.clear();
@@ -157,8 +197,9 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
                                       "'{}' is shaded as standard PBR",
                                       material.name, scene::to_string(material.type), object.name));
     }
-    if (!s.base_color_texture.empty() || !s.normal_texture.empty() || !s.metallic_roughness_texture.empty())
-      warnings.push_back(weft::format("material '{}': textures are not sampled yet; using its constant factors",
+    item.base_color_texture = base_color_texture(s.base_color_texture, material.name);
+    if (!s.normal_texture.empty() || !s.metallic_roughness_texture.empty())
+      warnings.push_back(weft::format("material '{}': normal and metallic-roughness maps are not sampled yet",
                                       material.name));
     items.push_back(item);
   }

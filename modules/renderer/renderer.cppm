@@ -56,7 +56,7 @@ class Renderer {
 
   // How many times each cache did real work (tests assert the second frame does none).
   struct CacheStats {
-    std::uint32_t mesh_uploads = 0, environment_uploads = 0, pass_creations = 0;
+    std::uint32_t mesh_uploads = 0, environment_uploads = 0, texture_uploads = 0, pass_creations = 0;
   };
   [[nodiscard]] CacheStats cache_stats() const;
 

@@ -15,10 +15,13 @@ namespace weft::passes {
 
 struct ForwardPass::State {
   gpu::BindGroupLayout bind_layout;
+  gpu::BindGroupLayout material_layout;
+  gpu::Texture white;  // the base colour map of materials without one
   gpu::PipelineLayout layout;
   gpu::RenderPipeline pipeline;
   gpu::Sampler shadow_sampler;
   gpu::Sampler environment_sampler;
+  gpu::Sampler material_sampler;
 };
 
 namespace {
@@ -40,8 +43,18 @@ Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
                    {1, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
                    {2, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}});
   if (!bind_layout) return std::unexpected(bind_layout.error());
-  auto layout = device.create_pipeline_layout(
-      {.label = "forward", .bind_group_layouts = {&*bind_layout}, .push_constant_size = sizeof(DrawConstants)});
+  auto material_layout = device.create_bind_group_layout(
+      {.label = "forward-material", .entries = {{0, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}});
+  if (!material_layout) return std::unexpected(material_layout.error());
+  auto white = device.create_texture({.label = "white", .size = {1, 1, 1}, .format = gpu::Format::RGBA8Unorm,
+                                      .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
+  if (!white) return std::unexpected(white.error());
+  const std::uint8_t white_texel[4] = {255, 255, 255, 255};
+  if (auto ok = device.queue().write_texture(*white, std::as_bytes(std::span(white_texel))); !ok)
+    return std::unexpected(ok.error());
+  auto layout = device.create_pipeline_layout({.label = "forward",
+                                               .bind_group_layouts = {&*bind_layout, &*material_layout},
+                                               .push_constant_size = sizeof(DrawConstants)});
   if (!layout) return std::unexpected(layout.error());
   auto pipeline = device.create_render_pipeline({.label = "forward",
                                                  .layout = &*layout,
@@ -57,9 +70,13 @@ Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
   if (!shadow_sampler) return std::unexpected(shadow_sampler.error());
   auto environment_sampler = device.create_sampler({.label = "environment", .address_mode = gpu::AddressMode::Repeat});
   if (!environment_sampler) return std::unexpected(environment_sampler.error());
+  auto material_sampler = device.create_sampler({.label = "material", .address_mode = gpu::AddressMode::Repeat});
+  if (!material_sampler) return std::unexpected(material_sampler.error());
   ForwardPass pass;
-  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*layout), std::move(*pipeline),
-                                              std::move(*shadow_sampler), std::move(*environment_sampler)});
+  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*material_layout), std::move(*white),
+                                              std::move(*layout), std::move(*pipeline),
+                                              std::move(*shadow_sampler), std::move(*environment_sampler),
+                                              std::move(*material_sampler)});
   return pass;
 }
 
@@ -101,7 +118,26 @@ Result<void> ForwardPass::add(RenderGraph& graph, std::span<const frame::DrawIte
              .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth)}});
         pass.set_pipeline(state->pipeline);
         pass.set_bind_group(0, frame_group);
+        // One material bind group per distinct base colour map (textures are imported
+        // read-only assets, already in ShaderRead state).
+        std::vector<std::pair<const gpu::TextureView*, const gpu::BindGroup*>> material_groups;
+        auto material_group = [&](const gpu::TextureView* view) -> const gpu::BindGroup* {
+          if (!view) view = &state->white.view();
+          for (auto& [v, g] : material_groups)
+            if (v == view) return g;
+          auto g = ctx.device().create_bind_group({.label = "forward-material", .layout = &state->material_layout,
+                                                   .entries = {gpu::bind(0, *view, &state->material_sampler)}});
+          if (!g) {
+            ctx.encoder().report_error(g.error());
+            return nullptr;
+          }
+          material_groups.emplace_back(view, &ctx.keep(std::move(*g)));
+          return material_groups.back().second;
+        };
         for (const auto& item : items) {
+          const auto* group = material_group(item.base_color_texture);
+          if (!group) break;
+          pass.set_bind_group(1, *group);
           const auto& m = item.material;
           pass.push(DrawConstants{item.model, vec4(m.base_color, m.metallic), vec4(m.roughness, m.emissive)});
           pass.set_vertex_buffer(0, item.mesh->vertices);

@@ -8,6 +8,7 @@
 layout(set = 0, binding = 0) uniform Frame { FrameData frame; };
 layout(set = 0, binding = 1) uniform sampler2DShadow shadow_map;
 layout(set = 0, binding = 2) uniform sampler2D environment_map;
+layout(set = 1, binding = 0) uniform sampler2D base_color_map;  // white when the material has none
 layout(push_constant) uniform Draw {
   mat4 model;
   vec4 base_color_metallic;
@@ -15,6 +16,7 @@ layout(push_constant) uniform Draw {
 } draw;
 layout(location = 0) in vec3 world_position;
 layout(location = 1) in vec3 world_normal;
+layout(location = 2) in vec2 uv;
 layout(location = 0) out vec4 out_color;
 
 float shadow_factor(vec3 p, vec3 n) {
@@ -30,7 +32,7 @@ float shadow_factor(vec3 p, vec3 n) {
 }
 
 void main() {
-  vec3 base = draw.base_color_metallic.rgb;
+  vec3 base = draw.base_color_metallic.rgb * texture(base_color_map, uv).rgb;
   float metallic = clamp(draw.base_color_metallic.a, 0.0, 1.0);
   float roughness = clamp(draw.roughness_emissive.x, 0.045, 1.0);
   vec3 emissive = draw.roughness_emissive.yzw;

@@ -10,7 +10,9 @@ layout(push_constant) uniform Draw {
 } draw;
 layout(location = 0) out vec3 world_position;
 layout(location = 1) out vec3 world_normal;
+layout(location = 2) out vec2 uv;
 void main() {
+  uv = in_uv;
   vec4 world = draw.model * vec4(in_position, 1.0);
   world_position = world.xyz;
   world_normal = transpose(inverse(mat3(draw.model))) * in_normal;

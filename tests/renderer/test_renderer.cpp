@@ -120,6 +120,7 @@ TEST_CASE("a second frame of the same scene uploads and compiles nothing new") {
   const auto after = r.cache_stats();
   CHECK(after.mesh_uploads == before.mesh_uploads);
   CHECK(after.environment_uploads == before.environment_uploads);
+  CHECK(after.texture_uploads == before.texture_uploads);
   CHECK(after.pass_creations == before.pass_creations);
   weft::test::expect_no_validation_messages();
 }
