@@ -1,6 +1,8 @@
 // `weft render SCENE.json -o out.png [--quality q] [--size WxH] [--profile]` and
 // `weft graph SCENE.json [--dot out.dot] [--dump]`.
+#include <algorithm>
 #include <chrono>
+#include <vector>
 #include <cstdio>
 #include <expected>
 #include <fstream>
@@ -9,6 +11,7 @@
 #include "commands.h"
 import weft.core;
 import weft.gpu;
+import weft.graph;
 import weft.image;
 import weft.scene;
 import weft.renderer;
@@ -49,6 +52,34 @@ Result<Session> open_session(const char* name) {
   return Session{std::move(*instance), std::move(*adapter), std::move(*device)};
 }
 
+// Per-pass medians over frames with the same passes (a steady frame, not the first).
+FrameStats median_stats(const std::vector<FrameStats>& frames) {
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v.empty() ? 0.0 : v[v.size() / 2];
+  };
+  FrameStats out = frames.front();
+  for (std::size_t p = 0; p < out.passes.size(); ++p) {
+    std::vector<double> gpu, cpu;
+    for (const auto& f : frames) {
+      gpu.push_back(f.passes.at(p).gpu_ms);
+      cpu.push_back(f.passes.at(p).cpu_record_us);
+    }
+    out.passes[p].gpu_ms = median(gpu);
+    out.passes[p].cpu_record_us = median(cpu);
+  }
+  std::vector<double> total, record, frame;
+  for (const auto& f : frames) {
+    total.push_back(f.gpu_total_ms);
+    record.push_back(f.cpu_record_total_us);
+    frame.push_back(f.cpu_frame_ms);
+  }
+  out.gpu_total_ms = median(total);
+  out.cpu_record_total_us = median(record);
+  out.cpu_frame_ms = median(frame);
+  return out;
+}
+
 Result<renderer::RenderOptions> options_from(const Common& c) {
   renderer::RenderOptions o;
   auto q = renderer::quality_from_string(c.quality);
@@ -75,7 +106,10 @@ Command add_render(CLI::App& app) {
   add_common(sub, *c);
   sub->add_option("-o,--output", *output, "Output image (.png, or .exr/.hdr for linear float)")->capture_default_str();
   sub->add_option("--exposure", *exposure, "Exposure multiplier before tone mapping")->capture_default_str();
+  auto frames = std::make_shared<unsigned>(1);
   sub->add_flag("--profile", *profile, "Print a per-pass timing table");
+  sub->add_option("--frames", *frames, "Render this many frames; --profile then reports medians of frames 2..N")
+      ->check(CLI::Range(1u, 10000u));
   return [=] {
     auto options = options_from(*c);
     if (!options) return fail_with("render", options.error());
@@ -91,10 +125,23 @@ Command add_render(CLI::App& app) {
     log::info(weft::format("rendering on {}", session->adapter.info().name));
     auto frame = r->render(*scene, *options);
     if (!frame) return fail_with("render", frame.error());
+    std::vector<FrameStats> later;  // frames after the first reuse every cache
+    for (unsigned i = 1; i < *frames; ++i) {
+      auto again = r->render(*scene, *options);
+      if (!again) return fail_with("render", again.error());
+      later.push_back(std::move(again->stats));
+    }
+    if (!later.empty()) frame->stats = median_stats(later);
     for (const auto& w : frame->warnings) log::warn(w);
     if (auto ok = image::save_png(*output, frame->image); !ok) return fail_with("render", ok.error());
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (*profile) std::printf("%s", frame->stats.format_table().c_str());
+    if (*profile) {
+      if (!later.empty()) std::printf("median of frames 2..%u:\n", *frames);
+      std::printf("%s", frame->stats.format_table().c_str());
+      std::printf("transient memory: %.1f MiB aliased (%.1f MiB without aliasing); CPU frame %.2f ms\n",
+                  double(frame->stats.transient_bytes) / (1 << 20),
+                  double(frame->stats.transient_bytes_unaliased) / (1 << 20), frame->stats.cpu_frame_ms);
+    }
     std::printf("wrote %s (%ux%u) in %.2f s\n", output->c_str(), frame->image.width, frame->image.height, seconds);
     return 0;
   };
