@@ -11,7 +11,7 @@ layout(set = 0, binding = 2) uniform sampler2D orientation;
 struct FurLayer {
   float keep_min;       // draw texels whose A lies in [keep_min, keep_max)
   float keep_max;
-  float top_luminance;  // texels brighter than this are darkened to it (drawn below their band)
+  float top;            // texels above the band's top (drawn below their band) are darkened to it
   float height;         // above the skin, in units of h_b
 };
 layout(set = 0, binding = 3, std430) readonly buffer Bands { FurLayer bands[]; };

@@ -25,8 +25,8 @@ void main() {
 #else
   FurLayer band = bands[layer];
   if (texel.a < band.keep_min || texel.a >= band.keep_max) discard;
-  float luminance = code_to_luminance(texel.a);
-  vec3 albedo = texel.rgb * (luminance > band.top_luminance ? band.top_luminance / luminance : 1.0);
+  vec3 albedo = texel.a > band.top ? texel.rgb * (code_to_luminance(max(band.top, 0.0)) / code_to_luminance(texel.a))
+                                    : texel.rgb;
 #endif
   albedo *= draw.tint_thickness.rgb;
   vec3 n = normalize(world_normal);

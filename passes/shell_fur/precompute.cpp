@@ -246,7 +246,7 @@ Result<FurBandTable> make_band_table(double i_max, double i_min, std::uint32_t l
     const bool skin = n == layers;
     g.keep_min = skin ? -1.0f : (float(t.first_code[n]) - 0.5f) / 255.0f;
     g.keep_max = (skin || n == 0 || layout == FurLayout::Strand) ? 2.0f : (float(t.first_code[n - 1]) - 0.5f) / 255.0f;
-    g.top_luminance = n == 0 ? std::numeric_limits<float>::max() : float(t.boundaries[n - 1]);
+    g.top = n == 0 ? 2.0f : (float(t.first_code[n - 1]) - 0.5f) / 255.0f;
     g.height = float(layers - n) / float(layers);
   }
   return t;
@@ -271,17 +271,17 @@ std::vector<std::vector<std::uint8_t>> make_shell_textures(const FurPhoto& photo
   std::vector<std::vector<std::uint8_t>> layers(table.layers + 1, std::vector<std::uint8_t>(n * 4, 0));
   for (std::uint32_t layer = 0; layer <= table.layers; ++layer) {
     auto& out = layers[layer];
-    const double top = table.gpu[layer].top_luminance;
+    const double top = double(table.gpu[layer].top) * 255.0;
+    // Every texel gets its colour (as drawn in this layer) so bilinear filtering never blends
+    // in black from texels the layer does not keep; alpha says which it keeps.
     for (std::size_t i = 0; i < n; ++i) {
       const std::uint8_t code = photo.code(i);
-      if (!table.keeps(layer, code)) continue;
-      const double y = lin[code];
-      const double factor = y > top ? top / y : 1.0;
+      const double factor = double(code) > top ? fur_code_to_luminance(top) / lin[code] : 1.0;
       for (int k = 0; k < 3; ++k) {
         const std::uint8_t v = photo.rgba[i * 4 + std::size_t(k)];
         out[i * 4 + std::size_t(k)] = factor == 1.0 ? v : to_code(srgb_encode(lin[v] * factor));
       }
-      out[i * 4 + 3] = 255;
+      out[i * 4 + 3] = table.keeps(layer, code) ? 255 : 0;
     }
   }
   return layers;
@@ -298,7 +298,9 @@ image::Image8 synthesize_fur_photo(const FurSynthesis& s) {
     float height;
     vec2 root;
   };
-  std::vector<Hair> hairs(s.hairs);
+  const double hair_area = std::max(1e-3, double(s.hair_length) * double(s.hair_width));
+  const auto count = std::size_t(std::clamp(double(s.coverage) * double(w) * double(h) / hair_area, 0.0, 1e7));
+  std::vector<Hair> hairs(count);
   for (auto& hair : hairs) hair = {unit(rng), vec2(unit(rng) * float(w), unit(rng) * float(h))};
   std::sort(hairs.begin(), hairs.end(), [](const Hair& a, const Hair& b) { return a.height < b.height; });
   const float flow = s.flow_degrees * pi / 180.0f;

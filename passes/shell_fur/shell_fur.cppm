@@ -97,13 +97,13 @@ struct FurPhoto {
 enum class FurLayout : std::uint8_t { Band, Strand };
 [[nodiscard]] std::string_view to_string(FurLayout layout);
 
-// One shell as the shaders see it (std430, 16 bytes): the alpha (luminance code / 255)
-// interval [keep_min, keep_max) it draws, the linear luminance a texel is darkened to when it
-// is drawn below its own band (a huge value: never), and its height above the skin / h_b.
+// One shell as the shaders see it (std430, 16 bytes), in alpha units (luminance code / 255):
+// the interval [keep_min, keep_max) it draws; the top of its band, above which a texel (drawn
+// below its own band) is darkened to that luminance (2: never); its height above the skin / h_b.
 struct FurGpuLayer {
   float keep_min = 0.0f;
   float keep_max = 0.0f;
-  float top_luminance = 0.0f;
+  float top = 0.0f;
   float height = 0.0f;
 };
 
@@ -140,7 +140,7 @@ struct FurBandTable {
 // brighter, in `color` (linear RGB).
 struct FurSynthesis {
   std::uint32_t width = 256, height = 256;
-  std::uint32_t hairs = 3000;
+  float coverage = 1.0f;        // hairs over a pixel on average (the undercoat shows where none is)
   float hair_length = 24.0f;    // pixels
   float hair_width = 1.6f;      // pixels
   float flow_degrees = 30.0f;   // mean hair direction in the image
@@ -277,6 +277,40 @@ class ShellFurPass {
  private:
   struct State;
   std::shared_ptr<State> state_;
+};
+
+// A minimal frame around ShellFurPass for tests, benchmarks and accuracy studies, with any
+// camera (orthographic too): clears "scene_color" (RGBA16F) and "scene_depth", draws the fur
+// under one directional light and a constant sky, and reads back linear RGBA.
+struct FurFrameSettings {
+  std::uint32_t width = 64, height = 64;
+  mat4 view{1.0f};
+  mat4 projection{1.0f};  // Vulkan clip space (y down, depth 0..1)
+  vec3 camera_position{0.0f};
+  vec3 towards_light{0.0f, 1.0f, 0.0f};
+  vec3 light_radiance{pi};  // pi: a white Lambert surface facing the light reads 1
+  vec3 sky_radiance{0.0f};
+  vec4 clear_color{0.0f, 0.0f, 0.0f, 1.0f};
+};
+
+class FurFrame {
+ public:
+  static Result<FurFrame> create(gpu::Device& device, const FurFrameSettings& settings);
+  FurFrame(FurFrame&&) noexcept;
+  FurFrame& operator=(FurFrame&&) noexcept;
+  ~FurFrame();
+  // Builds and compiles the frame's graph for these draws (which must outlive it).
+  Result<void> set_draws(const ShellFurPass& pass, std::span<const ShellFurDraw> draws);
+  Result<FrameStats> execute(bool timestamps = false);
+  // The colour target after execute(): width x height x 4 linear floats.
+  Result<image::Image> read_color();
+  // Device memory the frame's own targets take (colour, depth, uniforms, shadow stand-in).
+  [[nodiscard]] std::uint64_t target_bytes() const;
+
+ private:
+  FurFrame() = default;
+  struct State;
+  std::unique_ptr<State> state_;
 };
 
 // The FeaturePass for "fur" materials (registered in the renderer's features.cpp).
