@@ -274,8 +274,9 @@ std::optional<std::filesystem::path> find_head(const Options& o) {
   return std::nullopt;
 }
 
-// The head scan's units: 0.454 units ear to ear; a head is about 155 mm there.
-constexpr double kHeadMmPerUnit = 340.0;
+// The head scan is a bust: the head is 0.167 units wide and 0.222 long at the forehead, an
+// adult head 150-155 by 190-195 mm, so about 900 mm per unit.
+constexpr double kHeadMmPerUnit = 900.0;
 
 void mesh_table(const Options& o) {
   std::printf("\n### On meshes: per-vertex LUT shading against the brute-force mesh reference\n\n");

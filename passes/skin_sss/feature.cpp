@@ -189,14 +189,14 @@ Result<void> SkinSSSPass::add(RenderGraph& graph, std::span<const SkinDraw> draw
           const skin::SkinMaterial& m = mat.params;
           // Uniform scale of the object (curvature is per mesh unit; mm_per_unit is per world unit).
           const float scale = std::cbrt(std::abs(glm::determinant(mat3(draw.model))));
-          const float to_lut = m.curvature_scale / (m.mm_per_unit * float(m.lut.max_curvature));
+          const float to_lut = m.curvature_scale / (m.mm_per_unit * float(m.lut.max_curvature));  // world 1/r -> v
           SkinConstants c{};
           c.model = draw.model;
           c.albedo_specular = vec4(m.albedo, m.specular);
-          c.params = vec4(m.roughness, scale > 0.0f ? to_lut / scale : 0.0f, to_lut, m.mm_per_unit);
+          c.params = vec4(m.roughness, scale > 0.0f && std::isfinite(scale) ? 1.0f / scale : 0.0f, to_lut, m.mm_per_unit);
           c.normal_blur = vec4(m.normal_blur, m.normal_strength);
           c.transmit = vec4(m.transmittance ? m.transmittance_scale : 0.0f, m.transmittance_shrink_mm / m.mm_per_unit,
-                            float(mat.flags), float(m.debug_view));
+                            float(mat.flags + 16 * int(m.debug_view)), m.shadow_scatter_mm / m.mm_per_unit);
           pass.set_bind_group(1, mat.group);
           pass.push(c);
           pass.set_vertex_buffer(0, draw.mesh->vertices);

@@ -97,6 +97,7 @@ Result<SkinMaterial> parse_skin_material(const scene::Material& material, Qualit
       m.transmittance_scale = float(r.number("transmittance_scale", m.transmittance_scale, {.min = 0, .max = 1000}));
       m.transmittance_shrink_mm =
           float(r.number("transmittance_shrink_mm", m.transmittance_shrink_mm, {.min = 0, .max = 1000}));
+      m.shadow_scatter_mm = float(r.number("shadow_scatter_mm", m.shadow_scatter_mm, {.min = 0, .max = 1000}));
       const std::string debug =
           r.string("debug_view", "none", {"none", "curvature", "diffuse", "transmittance", "thickness"});
       for (DebugView d : {DebugView::None, DebugView::Curvature, DebugView::Diffuse, DebugView::Transmittance,

@@ -23,9 +23,26 @@ vec2 lut_uv(vec2 x) {
   return (clamp(x, 0.0, 1.0) * (size - 1.0) + 0.5) / size;
 }
 
-float shadow_factor(vec3 p, vec3 n) {
-  vec4 clip = frame.light_view_projection * vec4(p + n * 0.002, 1.0);
+// The light-space depth per world unit along the light (the light matrix is orthographic).
+float depth_per_unit() {
+  mat4 m = frame.light_view_projection;
+  return length(vec3(m[0][2], m[1][2], m[2][2]));
+}
+
+// 3x3 PCF of the shadow map; `reach` (world units) counts a point as lit when the first surface
+// the light meets is less than `reach` in front of it.
+float shadow_texel_world() {
+  mat4 m = frame.light_view_projection;
+  return 2.0 / (float(textureSize(shadow_map, 0).x) * max(length(vec3(m[0][0], m[1][0], m[2][0])), 1e-20));
+}
+
+float shadow_factor(vec3 p, vec3 n, float reach) {
+  // Normal offset of two shadow texels (world size from the matrix's x row), so grazing
+  // surfaces do not shadow themselves texel by texel.
+  mat4 m = frame.light_view_projection;
+  vec4 clip = m * vec4(p + n * (2.0 * shadow_texel_world()), 1.0);
   vec3 ndc = clip.xyz / clip.w;
+  ndc.z -= reach * depth_per_unit();
   vec2 suv = ndc.xy * 0.5 + 0.5;
   if (any(lessThan(suv, vec2(0.0))) || any(greaterThan(suv, vec2(1.0))) || ndc.z > 1.0) return 1.0;
   vec2 texel = 1.0 / vec2(textureSize(shadow_map, 0));
@@ -45,9 +62,7 @@ float thickness_world(vec3 p, vec3 n) {
   vec2 suv = ndc.xy * 0.5 + 0.5;
   if (any(lessThan(suv, vec2(0.0))) || any(greaterThan(suv, vec2(1.0)))) return 1e9;
   float occluder = texture(shadow_depth, suv).r;
-  mat4 m = frame.light_view_projection;
-  float per_unit = length(vec3(m[0][2], m[1][2], m[2][2]));
-  return max(ndc.z - occluder, 0.0) / max(per_unit, 1e-20);
+  return max(ndc.z - occluder, 0.0) / max(depth_per_unit(), 1e-20);
 }
 
 // Jimenez et al.'s transmittance profile of d'Eon's Gaussians, s in mm.
@@ -65,8 +80,9 @@ float fresnel(float v_dot_h, float f0) {
 }
 
 void main() {
-  int flags = int(draw.transmit.z + 0.5);
-  int debug_view = int(draw.transmit.w + 0.5);
+  int packed = int(draw.transmit.z + 0.5);
+  int flags = packed & 15;
+  int debug_view = packed >> 4;
 
   vec3 ng = normalize(world_normal);
   vec3 v = normalize(frame.camera_position.xyz - world_position);
@@ -93,15 +109,15 @@ void main() {
 
   // Curvature as the LUT's v in [0, 1]: per vertex, or from screen-space derivatives of the
   // geometric normal and position (the thesis's per-pixel alternative).
-  float curvature;
+  float world_curvature;  // 1/r in 1/world units
   if ((flags & FLAG_SCREEN_CURVATURE) != 0) {
     float dp = length(fwidth(world_position));
-    curvature = dp > 0.0 ? length(fwidth(ng)) / dp * draw.params.z : 0.0;
+    world_curvature = dp > 0.0 ? length(fwidth(ng)) / dp : 0.0;
   } else {
-    curvature = vertex_curvature * draw.params.y;
+    world_curvature = vertex_curvature * draw.params.y;
   }
-  if (!(curvature >= 0.0)) curvature = 0.0;  // NaN and negatives
-  curvature = min(curvature, 1.0);
+  if (!(world_curvature >= 0.0) || isinf(world_curvature)) world_curvature = 0.0;  // NaN, negatives, inf
+  float curvature = min(world_curvature * draw.params.z, 1.0);
 
   vec3 l = normalize(frame.light_direction.xyz);
   vec3 light = frame.light_color.rgb;
@@ -113,12 +129,19 @@ void main() {
   lut.g = texture(skin_lut, lut_uv(vec2(dot(n_g, l) * 0.5 + 0.5, curvature))).g;
   lut.b = texture(skin_lut, lut_uv(vec2(dot(n_b, l) * 0.5 + 0.5, curvature))).b;
 
-  // The LUT already darkens the side turned from the light; the shadow map would also find
-  // it self-shadowed and kill the light scattered past the terminator, so shadows apply in
-  // full only where the surface faces the light (N·L >= 0.2).
+  // The LUT already accounts for the local sphere of radius r shadowing itself past the
+  // terminator (the light it wraps there comes through that sphere), but the shadow map finds
+  // the same points shadowed and would kill that light. So the diffuse term ignores occluders
+  // nearer than the local sphere's chord along the light, 2r·max(-N·L, 0), plus a margin for
+  // faceted meshes (transmit.w): a nose still shadows the cheek, a ball no longer shadows its
+  // own wrap. The specular term takes the plain shadow.
   float ngl = dot(ng, l);
-  float shadow = shadow_factor(world_position, ng);
-  float diffuse_shadow = mix(1.0, shadow, smoothstep(0.0, 0.2, ngl));
+  float shadow = shadow_factor(world_position, ng, 0.0);
+  float self_chord = world_curvature > 0.0 ? min(2.0 * max(-ngl, 0.0) / world_curvature, 1e6) : (ngl < 0.0 ? 1e6 : 0.0);
+  // At grazing light a faceted silhouette in the shadow map stands several texels in front of
+  // the smooth surface (the shadow terminator problem): a slope-scaled margin hides it.
+  float grazing = 2.0 * shadow_texel_world() * min(sqrt(max(1.0 - ngl * ngl, 0.0)) / max(abs(ngl), 0.05), 20.0);
+  float diffuse_shadow = shadow_factor(world_position, ng, self_chord + draw.transmit.w + grazing);
   vec3 diffuse = albedo / PI * lut * light * diffuse_shadow;
 
   // Kelemen/Szirmay-Kalos: N·L ρ_s P(N·H, m) F / |L + V|², divided by π like the diffuse.
@@ -134,14 +157,18 @@ void main() {
     }
   }
 
-  // Transmittance through thin parts (Jimenez et al. 2010), for surfaces turned from the light.
+  // Transmittance through thin parts (Jimenez et al. 2010) for surfaces turned from the light
+  // that the light does not reach directly. Jimenez weights it by saturate(0.3 - N·L); here by
+  // saturate(-N·L) (1 - shadow): near the terminator the LUT's wrap already carries the light
+  // through the thin sliver of a convex surface, and where the shadow map says a point is the
+  // first surface the light meets (faceted silhouettes at grazing light) nothing is transmitted.
   vec3 transmitted = vec3(0.0);
   vec3 profile = vec3(0.0);
   float thickness_mm = 0.0;
-  float back = clamp(0.3 - ngl, 0.0, 1.0);
+  float back = clamp(-ngl, 0.0, 1.0);
   if (draw.transmit.x > 0.0) {
     thickness_mm = thickness_world(world_position, ng) * draw.params.w;
-    profile = transmittance_profile(thickness_mm * draw.transmit.x) * back;
+    profile = transmittance_profile(thickness_mm * draw.transmit.x) * back * (1.0 - shadow);
     transmitted = albedo / PI * profile * light;
   }
 

@@ -13,9 +13,11 @@ layout(set = 1, binding = 2) uniform sampler2D normal_map;         // tangent sp
 layout(push_constant) uniform Draw {
   mat4 model;
   vec4 albedo_specular;  // rgb albedo, a rho_s
-  vec4 params;           // x Beckmann m, y vertex curvature -> LUT v, z screen curvature -> LUT v, w mm per world unit
+  vec4 params;           // x Beckmann m, y 1 / object scale (mesh curvature -> world), z world curvature -> LUT v,
+                         // w mm per world unit
   vec4 normal_blur;      // rgb: weight of the geometric normal per channel, a detail strength
-  vec4 transmit;         // x thickness scale (0: off), y shrink (world units), z flags, w debug view
+  vec4 transmit;         // x thickness scale (0: off), y shrink (world units), z flags + 16 * debug view,
+                         // w shadow scatter distance (world units)
 } draw;
 
 const int FLAG_ALBEDO_MAP = 1;

@@ -228,6 +228,10 @@ struct SkinMaterial {
   bool transmittance = true;
   float transmittance_scale = 1.0f;  // multiplies the thickness (mm) before the profile
   float transmittance_shrink_mm = 0.3f;  // inset along the normal before the shadow lookup
+  // The diffuse term ignores occluders nearer than the local sphere's chord along the light
+  // (the LUT already has that self-shadowing) plus this margin (mm), which covers faceted
+  // meshes and lets light scattered a short way reach into cast shadows' edges.
+  float shadow_scatter_mm = 2.0f;
   DebugView debug_view = DebugView::None;
   LutParams lut;
 };
