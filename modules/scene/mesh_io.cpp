@@ -9,6 +9,7 @@ module;
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <charconv>
 #include <cstdint>
 #include <cstring>
 #include <exception>
@@ -294,10 +295,57 @@ Result<void> check_ply_header(const std::filesystem::path& path) {
   }
 }
 
+// Debian's OpenMesh is built with assertions, and its OBJ reader asserts (aborting the
+// process) on a face corner without a vertex index ("f /1/1 ..."); every face line is
+// checked first: each corner is v, v/vt, v//vn or v/vt/vn with integer indices.
+Result<void> check_obj_faces(const std::filesystem::path& path) {
+  auto bytes = detail::read_file(path, "mesh file");
+  if (!bytes) return std::unexpected(bytes.error());
+  const std::string_view text(reinterpret_cast<const char*>(bytes->data()), bytes->size());
+  const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; };
+  // An optionally negative integer of 1 to 9 digits.
+  const auto is_index = [](std::string_view t) {
+    if (!t.empty() && t.front() == '-') t.remove_prefix(1);
+    return !t.empty() && t.size() <= 9 && std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; });
+  };
+  std::size_t pos = 0, line_number = 0;
+  while (pos < text.size()) {
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view line = text.substr(pos, end - pos);
+    pos = end + 1;
+    ++line_number;
+    std::size_t i = 0;
+    while (i < line.size() && is_space(line[i])) ++i;
+    if (i + 1 >= line.size() || line[i] != 'f' || !is_space(line[i + 1])) continue;
+    for (i += 1; i < line.size();) {
+      while (i < line.size() && is_space(line[i])) ++i;
+      std::size_t j = i;
+      while (j < line.size() && !is_space(line[j])) ++j;
+      if (j == i) break;
+      const std::string_view corner = line.substr(i, j - i);
+      i = j;
+      const std::size_t a = corner.find('/');
+      const std::size_t b = a == std::string_view::npos ? a : corner.find('/', a + 1);
+      bool ok = is_index(corner.substr(0, a));
+      if (ok && a != std::string_view::npos) {
+        const std::string_view vt = corner.substr(a + 1, b == std::string_view::npos ? std::string_view::npos : b - a - 1);
+        ok = vt.empty() ? b != std::string_view::npos : is_index(vt);
+        if (ok && b != std::string_view::npos) ok = is_index(corner.substr(b + 1));
+      }
+      if (!ok) {
+        return fail(ErrorKind::Parse, "'{}': line {}: bad face corner '{}' (expected v, v/vt, v//vn or v/vt/vn)",
+                    path.string(), line_number, corner.substr(0, 40));
+      }
+    }
+  }
+  return {};
+}
+
 // OpenMesh's OFF reader trusts the counts line (and reads garbage counts from a file that
-// ends before it), looping billions of times; the header is checked first: the OFF keyword
-// with its optional prefixes, then vertex, face and edge counts the file could hold.
-Result<void> check_off_header(const std::filesystem::path& path) {
+// ends before it), looping billions of times; the file is checked first: the OFF keyword
+// with its optional prefixes, counts the file could hold, then the vertex and face lines.
+Result<void> check_off(const std::filesystem::path& path) {
   auto bytes = detail::read_file(path, "mesh file");
   if (!bytes) return std::unexpected(bytes.error());
   const std::string_view text(reinterpret_cast<const char*>(bytes->data()), bytes->size());
@@ -334,12 +382,75 @@ Result<void> check_off_header(const std::filesystem::path& path) {
                       std::string_view::npos;
   if (binary) return bad("binary OFF is not read by weft");
   if (keyword.find('n') != std::string_view::npos) (void)next_word();  // the dimension of nOFF
+  std::size_t counts[3] = {0, 0, 0};
+  int c = 0;
   for (const char* what : {"vertex", "face", "edge"}) {
     const std::string_view word = next_word();
-    if (word.empty() || word.size() > 10 || !std::all_of(word.begin(), word.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+    if (word.empty() || word.size() > 10 || !std::all_of(word.begin(), word.end(), [](char ch) { return ch >= '0' && ch <= '9'; })) {
       return bad(fmt::format("expected the {} count, got '{}'", what, word.substr(0, 20)));
     }
-    if (std::stoull(std::string(word)) > bytes->size()) return bad(fmt::format("the {} count is larger than the file could hold", what));
+    counts[c] = std::stoull(std::string(word));
+    if (counts[c++] > bytes->size()) return bad(fmt::format("the {} count is larger than the file could hold", what));
+  }
+
+  // The body, line by line: OpenMesh reads it token by token and trusts every count in it
+  // (a face "6-4" makes the next face's corner count -4, read four billion times).
+  const auto fail_at = [&](std::size_t line, std::string_view why) -> Result<void> {
+    return fail(ErrorKind::Parse, "'{}': OFF line {}: {}", path.string(), line, why);
+  };
+  std::size_t line_number = 1 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + std::ptrdiff_t(pos), '\n'));
+  const std::size_t first_line_end = text.find('\n', pos);
+  pos = first_line_end == std::string_view::npos ? text.size() : first_line_end + 1;
+  std::size_t vertices_seen = 0, faces_seen = 0;
+  std::vector<std::string_view> tokens;
+  while (faces_seen < counts[1] || vertices_seen < counts[0]) {
+    if (pos >= text.size()) {
+      return fail_at(line_number + 1, vertices_seen < counts[0]
+                                          ? fmt::format("the file ends after {} of {} vertices", vertices_seen, counts[0])
+                                          : fmt::format("the file ends after {} of {} faces", faces_seen, counts[1]));
+    }
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string_view line = text.substr(pos, end - pos);
+    pos = end + 1;
+    ++line_number;
+    tokens.clear();
+    for (std::size_t i = 0; i < line.size();) {
+      while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
+      std::size_t j = i;
+      while (j < line.size() && line[j] != ' ' && line[j] != '\t' && line[j] != '\r') ++j;
+      if (j > i) tokens.push_back(line.substr(i, j - i));
+      i = j;
+    }
+    if (tokens.empty() || tokens[0].front() == '#') continue;
+    if (vertices_seen < counts[0]) {
+      if (tokens.size() < 3) return fail_at(line_number, "a vertex needs 3 coordinates");
+      for (std::size_t k = 0; k < 3; ++k) {
+        float value = 0.0f;
+        const auto [ptr, ec] = std::from_chars(tokens[k].data(), tokens[k].data() + tokens[k].size(), value);
+        if (ec != std::errc() || ptr != tokens[k].data() + tokens[k].size()) {
+          return fail_at(line_number, fmt::format("'{}' is not a number", tokens[k].substr(0, 20)));
+        }
+      }
+      ++vertices_seen;
+      continue;
+    }
+    const auto integer = [](std::string_view t, long long& out) {
+      const auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), out);
+      return ec == std::errc() && ptr == t.data() + t.size();
+    };
+    long long corners = 0;
+    if (!integer(tokens[0], corners) || corners < 1 || corners > 4096) {
+      return fail_at(line_number, fmt::format("'{}' is not a face's corner count", tokens[0].substr(0, 20)));
+    }
+    if (tokens.size() < std::size_t(corners) + 1) return fail_at(line_number, "the face has fewer indices than its count");
+    for (long long k = 1; k <= corners; ++k) {
+      long long index = 0;
+      if (!integer(tokens[std::size_t(k)], index) || index < 0 || std::size_t(index) >= counts[0]) {
+        return fail_at(line_number, fmt::format("'{}' is not a vertex index below {}", tokens[std::size_t(k)].substr(0, 20), counts[0]));
+      }
+    }
+    ++faces_seen;
   }
   return {};
 }
@@ -488,10 +599,12 @@ Result<Mesh> load_mesh(const std::filesystem::path& path, const LoadOptions& opt
     const std::string ext = detail::lowercase_extension(path);
     Result<Mesh> mesh = std::unexpected(Error{});
     if (ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl") {
-      if (ext == ".ply") {
+      if (ext == ".obj") {
+        if (auto ok = check_obj_faces(path); !ok) return std::unexpected(ok.error());
+      } else if (ext == ".ply") {
         if (auto ok = check_ply_header(path); !ok) return std::unexpected(ok.error());
       } else if (ext == ".off") {
-        if (auto ok = check_off_header(path); !ok) return std::unexpected(ok.error());
+        if (auto ok = check_off(path); !ok) return std::unexpected(ok.error());
       }
       mesh = read_with_openmesh(path);
     } else if (ext == ".gltf" || ext == ".glb") {
