@@ -9,4 +9,5 @@ using Command = std::function<int()>;
 Command add_info(CLI::App& app);
 Command add_render(CLI::App& app);
 Command add_graph(CLI::App& app);
+Command add_bake(CLI::App& app);  // bake.cpp: `weft bake <asset>`
 }  // namespace weft::cli

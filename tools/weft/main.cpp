@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   add(weft::cli::add_info);
   add(weft::cli::add_render);
   add(weft::cli::add_graph);
+  add(weft::cli::add_bake);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
