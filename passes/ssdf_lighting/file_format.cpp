@@ -1,0 +1,354 @@
+// The .wssdf file: encode, and a decoder that checks every size before reading it and
+// names what is wrong (truncation, magic, version, checksums, inconsistent counts).
+module;
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <expected>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+module weft.ssdf;
+import weft.core;
+import weft.cluster;
+
+namespace weft::ssdf {
+namespace {
+static_assert(std::endian::native == std::endian::little, "the .wssdf writer assumes a little-endian host");
+
+constexpr std::array<char, 8> kMagic{'W', 'E', 'F', 'T', 'S', 'S', 'D', 'F'};
+constexpr std::uint32_t kHeaderBytes = 64;
+constexpr std::uint32_t kCentred = 1u;
+constexpr std::uint32_t kVertexTag = 0x00585456u;   // "VTX\0"
+constexpr std::uint32_t kClusterTag = 0x00534c43u;  // "CLS\0"
+
+std::uint64_t checksum(std::span<const std::byte> bytes) { return hash_bytes(bytes); }
+
+class Writer {
+ public:
+  template <class T>
+  void put(const T& value) {
+    const auto* p = reinterpret_cast<const std::byte*>(&value);
+    bytes.insert(bytes.end(), p, p + sizeof(T));
+  }
+  void put_floats(std::span<const float> values) {
+    const auto* p = reinterpret_cast<const std::byte*>(values.data());
+    bytes.insert(bytes.end(), p, p + values.size_bytes());
+  }
+  std::vector<std::byte> bytes;
+};
+
+class Reader {
+ public:
+  Reader(std::span<const std::byte> data, std::string_view source) : data_(data), source_(source) {}
+  template <class T>
+  Result<T> get(std::string_view what) {
+    if (data_.size() - at_ < sizeof(T)) return truncated(what, sizeof(T));
+    T value;
+    std::memcpy(&value, data_.data() + at_, sizeof(T));
+    at_ += sizeof(T);
+    return value;
+  }
+  Result<std::span<const std::byte>> take(std::size_t count, std::string_view what) {
+    if (data_.size() - at_ < count) return truncated(what, count);
+    auto span = data_.subspan(at_, count);
+    at_ += count;
+    return span;
+  }
+  [[nodiscard]] std::size_t remaining() const { return data_.size() - at_; }
+
+ private:
+  std::unexpected<Error> truncated(std::string_view what, std::size_t needed) const {
+    return fail(ErrorKind::Parse, "{}: truncated: {} needs {} bytes at offset {}, but only {} remain", source_, what,
+                needed, at_, data_.size() - at_);
+  }
+  std::span<const std::byte> data_;
+  std::string_view source_;
+  std::size_t at_ = 0;
+};
+
+void put_section(Writer& out, std::uint32_t tag, const std::vector<std::byte>& payload) {
+  out.put(tag);
+  out.put(std::uint32_t{0});
+  out.put(std::uint64_t(payload.size()));
+  out.put(checksum(payload));
+  out.bytes.insert(out.bytes.end(), payload.begin(), payload.end());
+}
+
+std::string tag_name(std::uint32_t tag) {
+  std::string name;
+  for (int i = 0; i < 4; ++i)
+    if (const char c = char((tag >> (8 * i)) & 0xffu); c) name += (c >= 32 && c < 127) ? c : '?';
+  return name;
+}
+
+// Floats read out of a payload (memcpy: the payload need not be aligned).
+std::vector<float> floats_of(std::span<const std::byte> bytes) {
+  std::vector<float> values(bytes.size() / sizeof(float));
+  std::memcpy(values.data(), bytes.data(), values.size() * sizeof(float));
+  return values;
+}
+}  // namespace
+
+Asset make_asset(std::uint32_t resolution, const CompressOptions& options, cluster::Cpca cpca) {
+  Asset asset;
+  asset.resolution = resolution;
+  asset.requested_clusters = std::uint32_t(std::min<std::size_t>(options.clusters, 0xffffffffu));
+  asset.requested_components = std::uint32_t(std::min<std::size_t>(options.max_components, 0xffffffffu));
+  asset.requested_energy = float(options.energy_fraction);
+  asset.cpca = std::move(cpca);
+  return asset;
+}
+
+std::vector<std::byte> encode(const Asset& asset) {
+  const auto& cpca = asset.cpca;
+  const bool centred = std::ranges::any_of(cpca.clusters, [](const auto& c) { return !c.mean.empty(); });
+  Writer vertices;
+  for (std::size_t r = 0; r < cpca.row_count; ++r) {
+    vertices.put(cpca.cluster_of[r]);
+    vertices.put(cpca.slot_of[r]);
+  }
+  Writer clusters;
+  for (const auto& c : cpca.clusters) {
+    const std::size_t m = c.basis.rows;
+    clusters.put(std::uint32_t(c.rows.size()));
+    clusters.put(std::uint32_t(m));
+    if (centred) {
+      if (c.mean.empty())
+        clusters.put_floats(std::vector<float>(cpca.cols, 0.0f));
+      else
+        clusters.put_floats(c.mean);
+    }
+    clusters.put_floats(c.basis.values);
+    if (cpca.format == cluster::CoefficientFormat::Unorm8) {
+      clusters.put_floats(c.offset.empty() ? std::vector<float>(m, 0.0f) : c.offset);
+      clusters.put_floats(c.scale.empty() ? std::vector<float>(m, 0.0f) : c.scale);
+    }
+    for (std::size_t i = 0; i < c.coefficients.values.size(); ++i) {
+      const float v = c.coefficients.values[i];
+      switch (cpca.format) {
+        case cluster::CoefficientFormat::Float32: clusters.put(v); break;
+        case cluster::CoefficientFormat::Float16: clusters.put(cluster::float_to_half(v)); break;
+        case cluster::CoefficientFormat::Unorm8: {
+          const std::size_t k = i % m;
+          const float scale = c.scale[k];
+          const float q = scale > 0.0f ? std::clamp(std::round((v - c.offset[k]) / scale), 0.0f, 255.0f) : 0.0f;
+          clusters.put(std::uint8_t(q));
+          break;
+        }
+      }
+    }
+  }
+  Writer out;
+  for (char ch : kMagic) out.put(ch);
+  out.put(kFileVersion);
+  out.put(kHeaderBytes);
+  out.put(asset.resolution);
+  out.put(std::uint32_t(cpca.cols));
+  out.put(std::uint32_t(cpca.row_count));
+  out.put(std::uint32_t(cpca.clusters.size()));
+  out.put(std::uint32_t(cpca.format));
+  out.put(centred ? kCentred : 0u);
+  out.put(asset.requested_components);
+  out.put(asset.requested_energy);
+  out.put(std::uint32_t{2});  // sections
+  out.put(asset.requested_clusters);
+  out.put(checksum(out.bytes));
+  put_section(out, kVertexTag, vertices.bytes);
+  put_section(out, kClusterTag, clusters.bytes);
+  return std::move(out.bytes);
+}
+
+Result<Asset> decode(std::span<const std::byte> bytes, std::string_view source) {
+  Reader in(bytes, source);
+  auto header_bytes = in.take(std::min<std::size_t>(bytes.size(), kHeaderBytes), "the header");
+  const std::size_t magic_bytes = std::min(bytes.size(), kMagic.size());
+  if (std::memcmp(bytes.data(), kMagic.data(), magic_bytes) == 0 && bytes.size() < kHeaderBytes)
+    return fail(ErrorKind::Parse, "{}: truncated: the header needs {} bytes, the file has {}", source, kHeaderBytes,
+                bytes.size());
+  if (std::memcmp(bytes.data(), kMagic.data(), magic_bytes) != 0)
+    return fail(ErrorKind::Parse, "{}: not a weft SSDF file (the magic 'WEFTSSDF' is missing)", source);
+  if (bytes.size() >= 12) {
+    std::uint32_t version;
+    std::memcpy(&version, bytes.data() + 8, 4);
+    if (version != kFileVersion)
+      return fail(ErrorKind::Unsupported, "{}: file version {} is not supported (this build reads version {})", source,
+                  version, kFileVersion);
+  }
+  if (bytes.size() < kHeaderBytes)
+    return fail(ErrorKind::Parse, "{}: truncated: the header needs {} bytes, the file has {}", source, kHeaderBytes,
+                bytes.size());
+  Reader header(*header_bytes, source);
+  std::uint32_t fields[13];
+  for (auto& f : fields) f = 0;
+  (void)header.take(12, "magic and version");
+  for (int i = 0; i < 11; ++i) fields[i] = *header.get<std::uint32_t>("a header field");
+  const std::uint64_t stored_header_sum = *header.get<std::uint64_t>("the header checksum");
+  const std::uint64_t header_sum = checksum(header_bytes->first(kHeaderBytes - 8));
+  if (stored_header_sum != header_sum)
+    return fail(ErrorKind::Parse, "{}: header checksum mismatch (stored {}, computed {}): the file is corrupt", source,
+                hex64(stored_header_sum), hex64(header_sum));
+  const std::uint32_t header_size = fields[0], resolution = fields[1], cols = fields[2], vertex_count = fields[3],
+                      cluster_count = fields[4], format = fields[5], flags = fields[6], sections = fields[9];
+  if (header_size != kHeaderBytes)
+    return fail(ErrorKind::Parse, "{}: header size {} (version 1 has {})", source, header_size, kHeaderBytes);
+  if (resolution == 0 || std::uint64_t(resolution) * resolution != cols)
+    return fail(ErrorKind::Parse, "{}: {} directions do not make a {} x {} grid", source, cols, resolution, resolution);
+  if (format > std::uint32_t(cluster::CoefficientFormat::Unorm8))
+    return fail(ErrorKind::Parse, "{}: unknown coefficient format {}", source, format);
+  if (sections != 2) return fail(ErrorKind::Parse, "{}: {} sections (version 1 has 2)", source, sections);
+
+  Asset asset;
+  asset.resolution = resolution;
+  asset.requested_components = fields[7];
+  asset.requested_energy = std::bit_cast<float>(fields[8]);
+  asset.requested_clusters = fields[10];
+  auto& cpca = asset.cpca;
+  cpca.cols = cols;
+  cpca.row_count = vertex_count;
+  cpca.format = cluster::CoefficientFormat(format);
+  const bool centred = (flags & kCentred) != 0;
+
+  std::vector<std::span<const std::byte>> payloads;
+  for (std::uint32_t expected_tag : {kVertexTag, kClusterTag}) {
+    auto tag = in.get<std::uint32_t>("a section tag");
+    if (!tag) return std::unexpected(tag.error());
+    if (*tag != expected_tag)
+      return fail(ErrorKind::Parse, "{}: found section '{}' where '{}' belongs", source, tag_name(*tag),
+                  tag_name(expected_tag));
+    (void)in.get<std::uint32_t>("a section's reserved field");
+    auto size = in.get<std::uint64_t>("a section size");
+    if (!size) return std::unexpected(size.error());
+    auto sum = in.get<std::uint64_t>("a section checksum");
+    if (!sum) return std::unexpected(sum.error());
+    if (*size > in.remaining())
+      return fail(ErrorKind::Parse, "{}: truncated: section '{}' needs {} bytes, but only {} remain", source,
+                  tag_name(*tag), *size, in.remaining());
+    auto payload = *in.take(std::size_t(*size), "a section");
+    if (const std::uint64_t computed = checksum(payload); computed != *sum)
+      return fail(ErrorKind::Parse, "{}: section '{}' checksum mismatch (stored {}, computed {}): the file is corrupt",
+                  source, tag_name(*tag), hex64(*sum), hex64(computed));
+    payloads.push_back(payload);
+  }
+  if (in.remaining() != 0) return fail(ErrorKind::Parse, "{}: {} unexpected bytes after the last section", source, in.remaining());
+
+  // Vertices: (cluster, slot) each.
+  if (payloads[0].size() != std::uint64_t(vertex_count) * 8)
+    return fail(ErrorKind::Parse, "{}: section 'VTX' has {} bytes, {} vertices need {}", source, payloads[0].size(),
+                vertex_count, std::uint64_t(vertex_count) * 8);
+  Reader vertices(payloads[0], source);
+  cpca.cluster_of.resize(vertex_count);
+  cpca.slot_of.resize(vertex_count);
+  for (std::size_t v = 0; v < vertex_count; ++v) {
+    cpca.cluster_of[v] = *vertices.get<std::uint32_t>("a vertex's cluster");
+    cpca.slot_of[v] = *vertices.get<std::uint32_t>("a vertex's slot");
+    if (cpca.cluster_of[v] >= cluster_count)
+      return fail(ErrorKind::Parse, "{}: vertex {} is in cluster {}, but there are {}", source, v, cpca.cluster_of[v],
+                  cluster_count);
+  }
+  // Clusters: at least 8 bytes each, checked before anything is allocated for them.
+  if (std::uint64_t(cluster_count) * 8 > payloads[1].size())
+    return fail(ErrorKind::Parse, "{}: {} clusters cannot fit in section 'CLS' of {} bytes", source, cluster_count,
+                payloads[1].size());
+  Reader clusters(payloads[1], source);
+  cpca.clusters.resize(cluster_count);
+  std::size_t rows_total = 0;
+  for (std::size_t c = 0; c < cluster_count; ++c) {
+    auto rows = clusters.get<std::uint32_t>("a cluster's row count");
+    auto m = rows ? clusters.get<std::uint32_t>("a cluster's component count") : rows;
+    if (!m) return std::unexpected(m.error());
+    if (*rows > vertex_count || *m > cols)
+      return fail(ErrorKind::Parse, "{}: cluster {} claims {} rows and {} components ({} vertices, {} directions)", source,
+                  c, *rows, *m, vertex_count, cols);
+    rows_total += *rows;
+    auto& cluster = cpca.clusters[c];
+    if (centred) {
+      auto mean = clusters.take(std::size_t(cols) * 4, "a cluster mean");
+      if (!mean) return std::unexpected(mean.error());
+      cluster.mean = floats_of(*mean);
+    }
+    auto basis = clusters.take(std::size_t(*m) * cols * 4, "a cluster basis");
+    if (!basis) return std::unexpected(basis.error());
+    cluster.basis.rows = *m;
+    cluster.basis.cols = cols;
+    cluster.basis.values = floats_of(*basis);
+    if (cpca.format == cluster::CoefficientFormat::Unorm8) {
+      auto offset = clusters.take(std::size_t(*m) * 4, "8-bit offsets");
+      if (!offset) return std::unexpected(offset.error());
+      auto scale = clusters.take(std::size_t(*m) * 4, "8-bit scales");
+      if (!scale) return std::unexpected(scale.error());
+      cluster.offset = floats_of(*offset);
+      cluster.scale = floats_of(*scale);
+    }
+    const std::size_t count = std::size_t(*rows) * *m;
+    auto coefficients = clusters.take(count * cluster::bytes_per_coefficient(cpca.format), "cluster coefficients");
+    if (!coefficients) return std::unexpected(coefficients.error());
+    cluster.coefficients.rows = *rows;
+    cluster.coefficients.cols = *m;
+    cluster.coefficients.values.resize(count);
+    const auto* p = coefficients->data();
+    for (std::size_t i = 0; i < count; ++i) {
+      float& out = cluster.coefficients.values[i];
+      switch (cpca.format) {
+        case cluster::CoefficientFormat::Float32: std::memcpy(&out, p + 4 * i, 4); break;
+        case cluster::CoefficientFormat::Float16: {
+          std::uint16_t h;
+          std::memcpy(&h, p + 2 * i, 2);
+          out = cluster::half_to_float(h);
+          break;
+        }
+        case cluster::CoefficientFormat::Unorm8: {
+          const std::size_t k = i % *m;
+          out = cluster.offset[k] + cluster.scale[k] * float(std::to_integer<std::uint8_t>(p[i]));
+          break;
+        }
+      }
+    }
+  }
+  if (clusters.remaining() != 0)
+    return fail(ErrorKind::Parse, "{}: section 'CLS' has {} bytes left over", source, clusters.remaining());
+  if (rows_total != vertex_count)
+    return fail(ErrorKind::Parse, "{}: clusters hold {} rows, but there are {} vertices", source, rows_total, vertex_count);
+  // Each vertex's slot must be free and inside its cluster; fill the clusters' row lists.
+  for (auto& cluster : cpca.clusters) cluster.rows.assign(cluster.coefficients.rows, 0xffffffffu);
+  for (std::size_t v = 0; v < vertex_count; ++v) {
+    auto& rows = cpca.clusters[cpca.cluster_of[v]].rows;
+    if (cpca.slot_of[v] >= rows.size() || rows[cpca.slot_of[v]] != 0xffffffffu)
+      return fail(ErrorKind::Parse, "{}: vertex {} has slot {} in cluster {}, which is taken or out of range", source, v,
+                  cpca.slot_of[v], cpca.cluster_of[v]);
+    rows[cpca.slot_of[v]] = std::uint32_t(v);
+  }
+  return asset;
+}
+
+Result<void> write_file(const std::filesystem::path& path, const Asset& asset) {
+  const auto bytes = encode(asset);
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) return fail(ErrorKind::Io, "cannot open '{}' for writing", path.string());
+  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+  out.close();
+  if (!out) return fail(ErrorKind::Io, "writing '{}' failed", path.string());
+  return {};
+}
+
+Result<Asset> read_file(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return fail(ErrorKind::NotFound, "SSDF file '{}' not found", path.string());
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return fail(ErrorKind::Io, "cannot open '{}'", path.string());
+  std::vector<char> data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) return fail(ErrorKind::Io, "reading '{}' failed", path.string());
+  const std::string source = path.string();
+  return decode(std::as_bytes(std::span(data)), source);
+}
+
+}  // namespace weft::ssdf
