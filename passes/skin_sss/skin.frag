@@ -52,6 +52,15 @@ float shadow_factor(vec3 p, vec3 n, float reach) {
   return lit / 9.0;
 }
 
+// One bilinear comparison (2x2 PCF): enough for the specular and the transmittance mask.
+float shadow_factor_1tap(vec3 p, vec3 n) {
+  vec4 clip = frame.light_view_projection * vec4(p + n * (2.0 * shadow_texel_world()), 1.0);
+  vec3 ndc = clip.xyz / clip.w;
+  vec2 suv = ndc.xy * 0.5 + 0.5;
+  if (any(lessThan(suv, vec2(0.0))) || any(greaterThan(suv, vec2(1.0))) || ndc.z > 1.0) return 1.0;
+  return texture(shadow_map, vec3(suv, ndc.z));
+}
+
 // World-space distance the light travels inside the object before reaching p: p's light
 // depth minus the shadow map's (the first surface the light meets). The light matrix is
 // orthographic, so depth is linear: its z row's length converts depth to distance.
@@ -136,7 +145,7 @@ void main() {
   // faceted meshes (transmit.w): a nose still shadows the cheek, a ball no longer shadows its
   // own wrap. The specular term takes the plain shadow.
   float ngl = dot(ng, l);
-  float shadow = shadow_factor(world_position, ng, 0.0);
+  float shadow = shadow_factor_1tap(world_position, ng);
   float self_chord = world_curvature > 0.0 ? min(2.0 * max(-ngl, 0.0) / world_curvature, 1e6) : (ngl < 0.0 ? 1e6 : 0.0);
   // At grazing light a faceted silhouette in the shadow map stands several texels in front of
   // the smooth surface (the shadow terminator problem): a slope-scaled margin hides it.
