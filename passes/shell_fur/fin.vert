@@ -21,10 +21,10 @@ layout(location = 5) out float fin_height;
 const vec2 corners[6] = vec2[](vec2(0, 0), vec2(1, 0), vec2(0, 1), vec2(0, 1), vec2(1, 0), vec2(1, 1));
 void main() {
   vec2 c = corners[gl_VertexIndex % 6];
-  mat3 normal_matrix = transpose(inverse(mat3(draw.model)));
+  mat3 to_world = normal_matrix(draw.model);
   vec3 middle = (draw.model * vec4(0.5 * (position_a + position_b), 1.0)).xyz;
   vec3 v = normalize(frame.camera_position.xyz - middle);
-  vec3 n0 = normal_matrix * face_normal_0, n1 = normal_matrix * face_normal_1;
+  vec3 n0 = to_world * face_normal_0, n1 = to_world * face_normal_1;
   n0 = dot(n0, n0) > 0.0 ? normalize(n0) : vec3(0.0);
   n1 = dot(n1, n1) > 0.0 ? normalize(n1) : vec3(0.0);
   vec3 edge_normal = n0 + n1;
@@ -35,7 +35,7 @@ void main() {
   fin_height = c.y;
   uv = mix(uv_ab.xy, uv_ab.zw, c.x);
   vec3 n = mix(normal_a, normal_b, c.x);
-  world_normal = normal_matrix * n;
+  world_normal = to_world * n;
   world_tangent = vec4(mat3(draw.model) * (position_b - position_a), 1.0);
   vec4 world = draw.model * vec4(mix(position_a, position_b, c.x) + n * (draw.tint_thickness.w * c.y), 1.0);
   world_position = world.xyz;

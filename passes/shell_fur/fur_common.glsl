@@ -25,6 +25,13 @@ layout(push_constant) uniform FurDraw {
   vec4 specular;        // x strength, y shininess, z fin threshold |N.V|
 } draw;
 
+// The cofactor matrix: the inverse transpose times the determinant, so normals transform
+// correctly (up to length) for any invertible model matrix, with three cross products.
+mat3 normal_matrix(mat4 m) {
+  vec3 a = m[0].xyz, b = m[1].xyz, c = m[2].xyz;
+  return mat3(cross(b, c), cross(c, a), cross(a, b));
+}
+
 float code_to_luminance(float a) {
   return a <= 0.04045 ? a / 12.92 : pow((a + 0.055) / 1.055, 2.4);
 }

@@ -16,7 +16,7 @@ void main() {
   vec3 p = in_position + in_normal * (draw.tint_thickness.w * height);
   vec4 world = draw.model * vec4(p, 1.0);
   world_position = world.xyz;
-  world_normal = transpose(inverse(mat3(draw.model))) * in_normal;
+  world_normal = normal_matrix(draw.model) * in_normal;
   world_tangent = vec4(mat3(draw.model) * in_tangent.xyz, in_tangent.w);
   uv = in_uv;
   gl_Position = frame.view_projection * world;
