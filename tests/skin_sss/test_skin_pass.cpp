@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -199,5 +200,40 @@ TEST_CASE("material errors name the JSON path; a second frame generates and uplo
   CHECK(skin::lut_cache_stats().disk_hits == luts.disk_hits);
   CHECK(shared_renderer().cache_stats().pass_creations == caches.pass_creations);
   CHECK(shared_renderer().cache_stats().mesh_uploads == caches.mesh_uploads);
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("the head scan (when ../shared/data or assets/ has it): finite curvature, a lit side brighter than the dark one") {
+  std::filesystem::path path;
+  for (std::filesystem::path dir : {std::filesystem::path(std::getenv("WEFT_SHARED_DATA") ? std::getenv("WEFT_SHARED_DATA") : ""),
+                                    std::filesystem::path(std::getenv("WEFT_SOURCE_DIR") ? std::getenv("WEFT_SOURCE_DIR") : ".") / "assets"})
+    if (!dir.empty() && std::filesystem::exists(dir / "meshes/head/head.obj")) {
+      path = dir / "meshes/head/head.obj";
+      break;
+    }
+  if (path.empty()) {
+    MESSAGE("skipped: no meshes/head/head.obj under $WEFT_SHARED_DATA or assets/");
+    return;
+  }
+  // 900 mm per unit (docs/skin.md): lit from the viewer's right.
+  auto s = load(weft::format(R"({{"version": 1, "output": {{"width": 96, "height": 64}},
+    "camera": {{"position": [0.0, -0.02, 0.72], "target": [0, -0.08, 0], "fov": 32, "near": 0.05, "far": 5}},
+    "lights": [{{"type": "directional", "direction": [-0.95, -0.05, -0.3], "intensity": 3}}],
+    "meshes": {{"head": {{"path": "{}"}}}},
+    "materials": {{"m": {{"type": "skin", "mm_per_unit": 900}}}},
+    "objects": [{{"name": "head", "mesh": "head", "material": "m"}}]}})",
+                             path.string()));
+  for (float k : s.meshes[0].curvature) {
+    REQUIRE(std::isfinite(k));
+    CHECK(k >= 0.0f);
+  }
+  const auto frame = render(s);
+  // The face: the right cheek (lit) against the left cheek (away from the light).
+  double lit = 0.0, dark = 0.0;
+  for (std::uint32_t y = 26; y < 34; ++y) {
+    lit += linear(frame.image, 54, y, 0);
+    dark += linear(frame.image, 40, y, 0);
+  }
+  CHECK(lit > 2.0 * dark);
   weft::test::expect_no_validation_messages();
 }
