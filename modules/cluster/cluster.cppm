@@ -123,6 +123,8 @@ struct CpcaOptions {
   double energy_fraction = 1.0;  // per cluster (the SSDF paper's 寄与率 90 %: 0.9)
   bool center = true;
   CoefficientFormat coefficients = CoefficientFormat::Float32;
+  bool half_basis = false;  // round each cluster's mean and basis to fp16 (they dominate the
+                            // size when rows per cluster are few)
   std::size_t threads = 0;
 };
 
@@ -139,11 +141,13 @@ struct Cpca {
   std::size_t cols = 0;
   std::size_t row_count = 0;
   CoefficientFormat format = CoefficientFormat::Float32;
+  bool half_basis = false;  // means and bases hold fp16-representable values, stored as fp16
   std::vector<CpcaCluster> clusters;
   std::vector<std::uint32_t> cluster_of;  // per data row
   std::vector<std::uint32_t> slot_of;     // per data row: its index in its cluster's rows
 
-  // Storage a decoder needs: per cluster mean, basis (fp32), coefficients in `format`,
+  // Storage a decoder needs: per cluster mean, basis (fp32, or fp16 with half_basis),
+  // coefficients in `format`,
   // Unorm8 offsets and scales; plus one cluster id and slot per row (u32 each).
   [[nodiscard]] std::size_t compressed_bytes() const;
   [[nodiscard]] std::size_t total_components() const;

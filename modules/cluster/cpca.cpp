@@ -75,7 +75,7 @@ std::size_t Cpca::total_components() const {
 std::size_t Cpca::compressed_bytes() const {
   std::size_t bytes = row_count * 2 * sizeof(std::uint32_t);
   for (const auto& c : clusters) {
-    bytes += c.mean.size() * sizeof(float) + c.basis.values.size() * sizeof(float);
+    bytes += (c.mean.size() + c.basis.values.size()) * (half_basis ? 2 : 4);
     bytes += c.coefficients.values.size() * bytes_per_coefficient(format);
     bytes += (c.offset.size() + c.scale.size()) * sizeof(float);
   }
@@ -116,6 +116,7 @@ Result<Cpca> compress(const Matrix& data, std::span<const std::uint32_t> labels,
   cpca.cols = data.cols;
   cpca.row_count = data.rows;
   cpca.format = options.coefficients;
+  cpca.half_basis = options.half_basis;
   cpca.clusters.resize(cluster_count);
   cpca.cluster_of.assign(labels.begin(), labels.end());
   cpca.slot_of.assign(data.rows, 0);
@@ -150,6 +151,12 @@ Result<Cpca> compress(const Matrix& data, std::span<const std::uint32_t> labels,
     if (options.center) cluster.mean = pca->mean;
     cluster.basis = std::move(pca->basis);
     quantize(cluster, options.coefficients);
+    if (options.half_basis) {
+      // Coefficients were projected on the fp32 basis; with basis rows orthonormal, the
+      // rounding shows as an error of about 2^-11 relative per basis value.
+      for (float& v : cluster.basis.values) v = half_to_float(float_to_half(v));
+      for (float& v : cluster.mean) v = half_to_float(float_to_half(v));
+    }
     std::scoped_lock lock(error_mutex);
     ++done;
     if (data.values.size() > (1u << 22) && cluster_count >= 16 && done % (cluster_count / 8) == 0)

@@ -52,6 +52,7 @@ Result<Compressed> compress(const BakeMesh& mesh, const cluster::Matrix& ssdf, c
                                  .energy_fraction = options.energy_fraction,
                                  .center = options.center,
                                  .coefficients = options.coefficients,
+                                 .half_basis = options.half_basis,
                                  .threads = options.threads});
   if (!cpca) return with_context("SSDF compression", cpca.error());
   result.cpca = std::move(*cpca);

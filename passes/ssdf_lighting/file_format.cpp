@@ -28,6 +28,7 @@ static_assert(std::endian::native == std::endian::little, "the .wssdf writer ass
 constexpr std::array<char, 8> kMagic{'W', 'E', 'F', 'T', 'S', 'S', 'D', 'F'};
 constexpr std::uint32_t kHeaderBytes = 64;
 constexpr std::uint32_t kCentred = 1u;
+constexpr std::uint32_t kHalfBasis = 2u;
 constexpr std::uint32_t kVertexTag = 0x00585456u;   // "VTX\0"
 constexpr std::uint32_t kClusterTag = 0x00534c43u;  // "CLS\0"
 
@@ -39,6 +40,9 @@ class Writer {
   void put(const T& value) {
     const auto* p = reinterpret_cast<const std::byte*>(&value);
     bytes.insert(bytes.end(), p, p + sizeof(T));
+  }
+  void put_halves(std::span<const float> values) {
+    for (float v : values) put(cluster::float_to_half(v));
   }
   void put_floats(std::span<const float> values) {
     const auto* p = reinterpret_cast<const std::byte*>(values.data());
@@ -97,6 +101,15 @@ std::vector<float> floats_of(std::span<const std::byte> bytes) {
   std::memcpy(values.data(), bytes.data(), values.size() * sizeof(float));
   return values;
 }
+std::vector<float> halves_of(std::span<const std::byte> bytes) {
+  std::vector<float> values(bytes.size() / 2);
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    std::uint16_t h;
+    std::memcpy(&h, bytes.data() + 2 * i, 2);
+    values[i] = cluster::half_to_float(h);
+  }
+  return values;
+}
 }  // namespace
 
 Asset make_asset(std::uint32_t resolution, const CompressOptions& options, cluster::Cpca cpca) {
@@ -122,13 +135,14 @@ std::vector<std::byte> encode(const Asset& asset) {
     const std::size_t m = c.basis.rows;
     clusters.put(std::uint32_t(c.rows.size()));
     clusters.put(std::uint32_t(m));
-    if (centred) {
-      if (c.mean.empty())
-        clusters.put_floats(std::vector<float>(cpca.cols, 0.0f));
+    auto put_basis = [&](std::span<const float> values) {
+      if (cpca.half_basis)
+        clusters.put_halves(values);
       else
-        clusters.put_floats(c.mean);
-    }
-    clusters.put_floats(c.basis.values);
+        clusters.put_floats(values);
+    };
+    if (centred) put_basis(c.mean.empty() ? std::vector<float>(cpca.cols, 0.0f) : c.mean);
+    put_basis(c.basis.values);
     if (cpca.format == cluster::CoefficientFormat::Unorm8) {
       clusters.put_floats(c.offset.empty() ? std::vector<float>(m, 0.0f) : c.offset);
       clusters.put_floats(c.scale.empty() ? std::vector<float>(m, 0.0f) : c.scale);
@@ -157,7 +171,7 @@ std::vector<std::byte> encode(const Asset& asset) {
   out.put(std::uint32_t(cpca.row_count));
   out.put(std::uint32_t(cpca.clusters.size()));
   out.put(std::uint32_t(cpca.format));
-  out.put(centred ? kCentred : 0u);
+  out.put((centred ? kCentred : 0u) | (cpca.half_basis ? kHalfBasis : 0u));
   out.put(asset.requested_components);
   out.put(asset.requested_energy);
   out.put(std::uint32_t{2});  // sections
@@ -217,6 +231,9 @@ Result<Asset> decode(std::span<const std::byte> bytes, std::string_view source) 
   cpca.row_count = vertex_count;
   cpca.format = cluster::CoefficientFormat(format);
   const bool centred = (flags & kCentred) != 0;
+  cpca.half_basis = (flags & kHalfBasis) != 0;
+  if ((flags & ~(kCentred | kHalfBasis)) != 0) return fail(ErrorKind::Parse, "{}: unknown flags {:#x}", source, flags);
+  const std::size_t basis_value_bytes = cpca.half_basis ? 2 : 4;
 
   std::vector<std::span<const std::byte>> payloads;
   for (std::uint32_t expected_tag : {kVertexTag, kClusterTag}) {
@@ -272,15 +289,15 @@ Result<Asset> decode(std::span<const std::byte> bytes, std::string_view source) 
     rows_total += *rows;
     auto& cluster = cpca.clusters[c];
     if (centred) {
-      auto mean = clusters.take(std::size_t(cols) * 4, "a cluster mean");
+      auto mean = clusters.take(std::size_t(cols) * basis_value_bytes, "a cluster mean");
       if (!mean) return std::unexpected(mean.error());
-      cluster.mean = floats_of(*mean);
+      cluster.mean = cpca.half_basis ? halves_of(*mean) : floats_of(*mean);
     }
-    auto basis = clusters.take(std::size_t(*m) * cols * 4, "a cluster basis");
+    auto basis = clusters.take(std::size_t(*m) * cols * basis_value_bytes, "a cluster basis");
     if (!basis) return std::unexpected(basis.error());
     cluster.basis.rows = *m;
     cluster.basis.cols = cols;
-    cluster.basis.values = floats_of(*basis);
+    cluster.basis.values = cpca.half_basis ? halves_of(*basis) : floats_of(*basis);
     if (cpca.format == cluster::CoefficientFormat::Unorm8) {
       auto offset = clusters.take(std::size_t(*m) * 4, "8-bit offsets");
       if (!offset) return std::unexpected(offset.error());

@@ -119,6 +119,7 @@ struct CompressOptions {
   double energy_fraction = 1.0;     // per cluster; the paper's other setting: 0.9
   bool center = true;
   cluster::CoefficientFormat coefficients = cluster::CoefficientFormat::Float32;
+  bool half_basis = false;  // means and bases in fp16
   std::size_t threads = 0;
 };
 
@@ -179,7 +180,8 @@ inline constexpr std::uint32_t kFileVersion = 1;
 // resolution, directions, vertices, clusters, coefficient format, flags, requested
 // components and energy, section count, FNV-1a-64 of the header) then sections, each
 // {u32 tag, u32 0, u64 size, u64 FNV-1a-64 of the payload, payload}: "VTX\0" (cluster and
-// slot per vertex, u32 each) and "CLS\0" (per cluster: rows, components, mean, basis, 8-bit
+// slot per vertex, u32 each) and "CLS\0" (per cluster: rows, components, mean (when the
+// centred flag is set), basis (fp16 when the half-basis flag is set, else fp32), 8-bit
 // offsets and scales, coefficients in the header's format). See docs/ssdf.md.
 [[nodiscard]] std::vector<std::byte> encode(const Asset& asset);
 // Parse errors name what is wrong: truncation (what was being read and how many bytes were

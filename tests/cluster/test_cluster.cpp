@@ -265,6 +265,12 @@ TEST_CASE("CPCA: full rank is exact, stopping rules per cluster, quantized forma
     CHECK(error < (format == CoefficientFormat::Float16 ? 5e-3 : 0.1));
     CHECK(q->compressed_bytes() < reference->compressed_bytes());
   }
+  auto half = compress(data, labels, 4, {.half_basis = true});
+  REQUIRE(half);
+  CHECK(max_abs_difference(reconstruct(*half), exact) < 5e-3);
+  CHECK(half->compressed_bytes() < reference->compressed_bytes());
+  for (const auto& c : half->clusters)
+    for (float v : c.basis.values) CHECK(half_to_float(float_to_half(v)) == v);
   // One row per cluster (k = rows): every row is its cluster's mean.
   std::vector<std::uint32_t> own(90);
   for (std::size_t i = 0; i < 90; ++i) own[i] = static_cast<std::uint32_t>(i);

@@ -234,9 +234,12 @@ TEST_CASE(".wssdf round trip in every coefficient format, and every kind of corr
   for (auto format : {cluster::CoefficientFormat::Float32, cluster::CoefficientFormat::Float16,
                       cluster::CoefficientFormat::Unorm8}) {
     for (bool center : {true, false}) {
+      const bool half_basis = center == (format == cluster::CoefficientFormat::Float16);
       CAPTURE(cluster::to_string(format));
       CAPTURE(center);
-      ssdf::CompressOptions options{.clusters = 3, .max_components = 5, .center = center, .coefficients = format};
+      CAPTURE(half_basis);
+      ssdf::CompressOptions options{.clusters = 3, .max_components = 5, .center = center, .coefficients = format,
+                                    .half_basis = half_basis};
       auto c = ssdf::compress(baked->mesh, baked->raw, options);
       REQUIRE(c);
       const auto asset = ssdf::make_asset(6, options, c->cpca);
@@ -248,6 +251,7 @@ TEST_CASE(".wssdf round trip in every coefficient format, and every kind of corr
       CHECK(back->requested_components == 5);
       CHECK(back->cpca.cluster_of == c->cpca.cluster_of);
       CHECK(back->cpca.slot_of == c->cpca.slot_of);
+      CHECK(back->cpca.half_basis == half_basis);
       CHECK(cluster::reconstruct(back->cpca).values == cluster::reconstruct(c->cpca).values);
     }
   }
