@@ -67,7 +67,13 @@ Result<Pca> fit_pca(const Matrix& data, const PcaOptions& options) {
 
   // Eigenpairs of the smaller Gram matrix, largest first; basis rows from either side.
   const bool by_rows = n < d;
-  const MatrixD gram = by_rows ? MatrixD(x * x.transpose()) : MatrixD(x.transpose() * x);
+  // Only the lower triangle: a symmetric rank update does half the work of a product, and
+  // the solver reads nothing else.
+  MatrixD gram = MatrixD::Zero(by_rows ? n : d, by_rows ? n : d);
+  if (by_rows)
+    gram.selfadjointView<Eigen::Lower>().rankUpdate(x);
+  else
+    gram.selfadjointView<Eigen::Lower>().rankUpdate(x.transpose());
   Eigen::SelfAdjointEigenSolver<MatrixD> solver(gram);
   const Eigen::VectorXd values = solver.eigenvalues();  // increasing
   const MatrixD& vectors = solver.eigenvectors();
