@@ -160,7 +160,7 @@ class Converter {
     const int component_size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(acc.componentType));
     const std::size_t element = std::size_t(component_size) * std::size_t(v.components);
     if (acc.bufferView < 0) {
-      if (acc.count > (std::size_t{1} << 28)) return error(ErrorKind::Parse, "{}: accessor {} is too large", what, index);
+      if (acc.count > (std::size_t{1} << 22)) return error(ErrorKind::Parse, "{}: accessor {} (no bufferView) is too large", what, index);
       return v;  // zeros, as the spec says
     }
     if (std::size_t(acc.bufferView) >= model_.bufferViews.size()) {

@@ -99,6 +99,8 @@ struct LoadOptions {
 // tinygltf (every instance of every mesh, placed by its node, merged into one mesh). Then
 // prepare_mesh. Errors: NotFound, Unsupported (extension), Parse (corrupt file, indices out
 // of range, non-finite positions: named with the vertex index), InvalidArgument (empty).
+// OBJ face lines and whole PLY and OFF files are checked before OpenMesh reads them: its
+// readers hang, run out of memory or abort on some corrupt input (see mesh_io.cpp).
 [[nodiscard]] Result<Mesh> load_mesh(const std::filesystem::path& path, const LoadOptions& options = {});
 
 // Validates and completes a mesh, in this order: errors for no vertices/triangles, index
@@ -489,6 +491,10 @@ struct Welding {
 [[nodiscard]] Welding weld(std::span<const vec3> positions);
 // A unit vector orthogonal to the unit vector n (+X for n = +Y).
 [[nodiscard]] vec3 any_orthogonal(const vec3& n);
+// Checks of a mesh file's grammar before OpenMesh reads it (file_checks.cpp): Parse errors.
+[[nodiscard]] Result<void> check_obj_faces(const std::filesystem::path& path);
+[[nodiscard]] Result<void> check_ply(const std::filesystem::path& path);
+[[nodiscard]] Result<void> check_off(const std::filesystem::path& path);
 // Curvature of a valid mesh with normals; returns how many faces OpenMesh refused as
 // non-manifold (left out of mean and Gaussian curvature).
 std::size_t compute_curvature_counting(Mesh& mesh);

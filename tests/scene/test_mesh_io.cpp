@@ -370,3 +370,49 @@ TEST_CASE("prepare_mesh: validation of meshes built in code") {
     CHECK(m.curvature[4] == 0.0f);
   }
 }
+
+TEST_CASE("mesh files: inputs that hang, exhaust or abort OpenMesh's readers are refused first") {
+  TempDir dir;
+  const std::string ply_header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                 "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const auto refused = [&](const std::string& name, const auto& content, std::string_view why) {
+    write_file(dir / name, content);
+    auto r = sc::load_mesh(dir / name);
+    REQUIRE_FALSE(r.has_value());
+    CHECK(r.error().kind == ErrorKind::Parse);
+    CHECK_MESSAGE(contains(r.error().message, why), r.error().message);
+    CHECK(contains(r.error().message, name));
+  };
+  SUBCASE("a PLY header that ends early (OpenMesh loops forever)") {
+    refused("short.ply", ply_header.substr(0, 40), "no end_header");
+  }
+  SUBCASE("a PLY header with an unknown keyword") {
+    refused("keyword.ply", "ply\nformat ascii 1.0\nelemnt vertex 3\nend_header\n", "unknown keyword");
+  }
+  SUBCASE("a negative ASCII list length (OpenMesh allocates 4 billion entries)") {
+    refused("list.ply", ply_header + "0 0 0\n1 0 0\n0 1 0\n-3 0 1 2\n", "not a list length");
+  }
+  SUBCASE("a binary list length beyond the file") {
+    std::string header = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                         "property float z\nelement face 1\nproperty list uint int vertex_indices\nend_header\n";
+    std::vector<std::uint8_t> bytes(header.begin(), header.end());
+    for (int i = 0; i < 9; ++i) append(bytes, float(i % 2));
+    append(bytes, std::uint32_t{0xfffffffd});
+    refused("list_binary.ply", bytes, "list length");
+  }
+  SUBCASE("a PLY body that ends early") {
+    refused("body.ply", ply_header + "0 0 0\n1 0 0\n0 1", "ends");
+  }
+  SUBCASE("an OFF file that ends after its keyword (OpenMesh reads garbage counts)") {
+    refused("keyword.off", "OFF\n", "vertex count");
+  }
+  SUBCASE("an OFF face whose index runs into the next face's count") {
+    refused("run_on.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2-3 0 2 1\n3 0 1 2\n", "not a vertex index");
+  }
+  SUBCASE("an OFF face with too few indices") {
+    refused("few.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1\n", "fewer indices");
+  }
+  SUBCASE("an OBJ face corner without a vertex index (OpenMesh asserts)") {
+    refused("corner.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf /1 2/1 3/1\n", "bad face corner '/1'");
+  }
+}
