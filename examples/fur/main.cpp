@@ -165,6 +165,16 @@ int run(int argc, char** argv) {
       s.material["fins"] = false;
       return s;
     });
+  for (const char* layout : {"band", "strand"})
+    shots.push_back([&, layout]() -> Result<Shot> {
+      auto sphere = scene::make_sphere(0.5f, 64);
+      if (!sphere) return std::unexpected(sphere.error());
+      Shot s{std::string("sphere_") + layout, *sphere, fur(15, 0.07f), look({0, 0.6f, 2.0f}, vec3(0), {0, 1, 0}, 38.0f)};
+      s.material["layout"] = layout;
+      s.material["uv_scale"] = {3, 1.5};
+      s.light_direction = {-0.8f, -0.4f, -0.6f};
+      return s;
+    });
   for (bool fins : {false, true})
     shots.push_back([&, fins]() -> Result<Shot> {
       auto sphere = scene::make_sphere(0.5f, 64);
@@ -194,7 +204,8 @@ int run(int argc, char** argv) {
       auto mesh = examples::resample(*source, 2082);
       if (!mesh) return std::unexpected(mesh.error());
       mesh->name = "teapot_2082";
-      Shot s{"teapot_2k", std::move(*mesh), fur(15, 0.035f), look({0.55f, 0.55f, 1.15f}, {0, -0.02f, 0})};
+      const scene::Bounds bounds = mesh->bounds;
+      Shot s{"teapot_2k", std::move(*mesh), fur(15, 0.035f), scene::camera_framing(bounds, 40.0f)};
       s.material["uv_scale"] = {2, 2};
       return s;
     });
@@ -206,7 +217,9 @@ int run(int argc, char** argv) {
       auto mesh = examples::resample(*source, 34832);
       if (!mesh) return std::unexpected(mesh.error());
       mesh->name = "spot_34832";
-      Shot s{"spot_35k", std::move(*mesh), fur(15, 0.03f), look({0.9f, 0.35f, 1.0f}, {0, 0, 0})};
+      const scene::Bounds bounds = mesh->bounds;
+      Shot s{"spot_35k", std::move(*mesh), fur(15, 0.03f), scene::camera_framing(bounds, 40.0f)};
+      s.camera.position = vec3(1.0f, 0.45f, -1.3f);  // from the front left, the face in view
       s.material["uv_scale"] = {3, 3};
       return s;
     });

@@ -140,8 +140,8 @@ struct FurBandTable {
 // brighter, in `color` (linear RGB).
 struct FurSynthesis {
   std::uint32_t width = 256, height = 256;
-  float coverage = 1.0f;        // hairs over a pixel on average (the undercoat shows where none is)
-  float hair_length = 24.0f;    // pixels
+  float coverage = 1.8f;        // hairs over a pixel on average (the undercoat shows where none is)
+  float hair_length = 12.0f;    // pixels
   float hair_width = 1.6f;      // pixels
   float flow_degrees = 30.0f;   // mean hair direction in the image
   float flow_waviness = 0.6f;   // how much the direction varies across the image (radians)
@@ -200,8 +200,8 @@ struct FurMaterial {
   FurUvMapping uv_mapping = FurUvMapping::Auto;
   std::optional<vec2> comb;           // hair direction in UV space; absent: from the photo
   float lift_degrees = 20.0f;         // hair angle above the surface (Kajiya-Kay tangent)
-  float specular = 0.12f;
-  float shininess = 40.0f;
+  float specular = 0.05f;
+  float shininess = 50.0f;
   bool fins = true;
   float fin_threshold = 0.35f;        // |N.V| below which an edge grows a fin
   // The thickness for a mesh whose bounding-box diagonal is `diagonal`.
@@ -250,8 +250,8 @@ struct FurShading {
   FurWrap wrap = FurWrap::Mirror;
   std::optional<vec2> comb;
   float lift_degrees = 20.0f;
-  float specular = 0.12f;
-  float shininess = 40.0f;
+  float specular = 0.05f;
+  float shininess = 50.0f;
   float fin_threshold = 0.35f;
 };
 
