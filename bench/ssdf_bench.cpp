@@ -99,7 +99,7 @@ int main(int argc, char** argv) {
   std::printf("## Bake\n\n| stage | time | notes |\n|---|---|---|\n");
   std::printf("| visibility (Embree rtcOccluded1) | %.2f s | %.0f rays, %.2f Mrays/s, %.1f %% unoccluded |\n", visibility_s,
               rays, rays / visibility_s * 1e-6, 100.0 * double(open) / rays);
-  std::printf("| (visibility) | | teapot vertices %.1f %% unoccluded; %zu vertices (%.1f %%) see nothing (the model's inner shell under the lid) |\n",
+  std::printf("| (visibility) | | teapot vertices %.1f %% unoccluded; %zu vertices (%.1f %%) see nothing (presumably the shell's inside wall) |\n",
               100.0 * double(teapot_open) / double(teapot_vertices * grid.size()), enclosed,
               100.0 * double(enclosed) / double(visibility->probe_count));
   std::printf("| distance transform (ordered propagation) | %.2f s | %.1f µs per vertex |\n", distance_s,
