@@ -311,7 +311,8 @@ image::Image8 synthesize_fur_photo(const FurSynthesis& s) {
     const vec3 color = s.color * std::exp(-contrast * (1.0f - hair.height)) * (0.85f + 0.3f * unit(rng));
     const float length = s.hair_length * (0.6f + 0.8f * unit(rng));
     vec2 p = hair.root;
-    float angle = flow + s.flow_waviness * std::sin(2.0f * pi * (1.3f * p.x / float(w) + 0.7f * p.y / float(h)) + phase) +
+    // Whole periods across the image, so the flow tiles like the strokes do.
+    float angle = flow + s.flow_waviness * std::sin(2.0f * pi * (p.x / float(w) + 2.0f * p.y / float(h)) + phase) +
                   0.25f * (unit(rng) - 0.5f);
     const float bend = 0.04f * (unit(rng) - 0.5f);
     const float step = 0.35f;

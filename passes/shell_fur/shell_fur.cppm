@@ -137,7 +137,7 @@ struct FurBandTable {
 
 // A procedural top-down fur photo (redistributable, for tests, examples and docs when the
 // real photos are absent): curved hair strokes over a dark undercoat, later (higher) hairs
-// brighter, in `color` (linear RGB).
+// brighter, in `color` (linear RGB). It tiles: strokes and flow wrap around the edges.
 struct FurSynthesis {
   std::uint32_t width = 256, height = 256;
   float coverage = 1.8f;        // hairs over a pixel on average (the undercoat shows where none is)
