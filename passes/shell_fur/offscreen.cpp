@@ -127,10 +127,4 @@ Result<image::Image> FurFrame::read_color() {
   return out;
 }
 
-std::uint64_t FurFrame::target_bytes() const {
-  const auto& s = *state_;
-  const std::uint64_t texels = std::uint64_t(s.settings.width) * s.settings.height;
-  return texels * 8 + texels * 4 + s.uniforms.size() + 4;
-}
-
 }  // namespace weft::passes

@@ -265,9 +265,10 @@ Result<void> ShellFurPass::add(RenderGraph& graph, std::span<const ShellFurDraw>
         for (const ShellFurDraw& draw : draws) {
           const std::uint32_t layers = draw.layers->table.layers;
           const FurPush push = push_constants(draw);
+          const gpu::BindGroup* group = nullptr;  // over the photo: shells and fins
           if (draw.method == FurMethod::SinglePhoto) {
             // Tips first: with h_b = 0 the tips win the depth ties (the photo on the skin).
-            const gpu::BindGroup* group = group_for(draw, draw.photo->photo);
+            group = group_for(draw, draw.photo->photo);
             if (!group) break;
             pass.set_pipeline(state->shells);
             pass.set_bind_group(0, *group);
@@ -281,14 +282,14 @@ Result<void> ShellFurPass::add(RenderGraph& graph, std::span<const ShellFurDraw>
             pass.set_vertex_buffer(0, draw.mesh->vertices);
             pass.set_index_buffer(draw.mesh->indices);
             for (std::uint32_t n = 0; n <= layers; ++n) {
-              const gpu::BindGroup* group = group_for(draw, draw.layers->textures[n]);
-              if (!group) break;
-              pass.set_bind_group(0, *group);
+              const gpu::BindGroup* layer_group = group_for(draw, draw.layers->textures[n]);
+              if (!layer_group) break;
+              pass.set_bind_group(0, *layer_group);
               pass.draw_indexed(draw.mesh->index_count, 1, 0, 0, n);
             }
           }
           if (draw.fins && draw.fins->count > 0 && draw.shading.thickness > 0.0f) {
-            const gpu::BindGroup* group = group_for(draw, draw.photo->photo);
+            if (!group) group = group_for(draw, draw.photo->photo);
             if (!group) break;
             pass.set_pipeline(state->fins);
             pass.set_bind_group(0, *group);

@@ -304,8 +304,6 @@ class FurFrame {
   Result<FrameStats> execute(bool timestamps = false);
   // The colour target after execute(): width x height x 4 linear floats.
   Result<image::Image> read_color();
-  // Device memory the frame's own targets take (colour, depth, uniforms, shadow stand-in).
-  [[nodiscard]] std::uint64_t target_bytes() const;
 
  private:
   FurFrame() = default;

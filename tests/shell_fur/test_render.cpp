@@ -138,14 +138,6 @@ double max_difference(const image::Image& a, const image::Image& b) {
   return worst;
 }
 
-double total_variation(const image::Image& img) {
-  double sum = 0.0;
-  for (std::uint32_t y = 0; y + 1 < img.height; ++y)
-    for (std::uint32_t x = 0; x + 1 < img.width; ++x)
-      sum += std::abs(img.at(x + 1, y, 1) - img.at(x, y, 1)) + std::abs(img.at(x, y + 1, 1) - img.at(x, y, 1));
-  return sum;
-}
-
 bool all_finite(const image::Image& img) {
   return std::all_of(img.pixels.begin(), img.pixels.end(), [](float v) { return std::isfinite(v); });
 }
