@@ -50,8 +50,11 @@ TEST_CASE("weft bake ssdf writes a .wssdf the loader reads; bad knobs are refuse
   CHECK(asset->resolution == 8);
   CHECK(asset->cpca.clusters.size() == 4);
   CHECK(asset->cpca.total_components() <= 12);
-  const auto energy = run(base + " --resolution 6 --energy 0.9 --seeding farthest --no-center");
+  const auto energy = run(base + " --resolution 6 --energy 0.9 --seeding farthest --no-center --half-basis");
   CHECK_MESSAGE(energy.exit_code == 0, energy.output);
+  auto half = weft::ssdf::read_file(dir / "s.wssdf");
+  REQUIRE(half);
+  CHECK(half->cpca.half_basis);
   for (const char* bad : {" --components 3 --energy 0.9", " --energy 1.5", " --resolution 0", " --seeding random",
                           " --coefficients fp8"}) {
     CAPTURE(bad);

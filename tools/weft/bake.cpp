@@ -104,7 +104,7 @@ BakeTarget add_ssdf(CLI::App& bake) {
     std::size_t clusters = 64, components = 48, threads = 0;
     double energy = 1.0;
     std::uint64_t seed = 1;
-    bool no_center = false;
+    bool no_center = false, half_basis = false;
   };
   auto a = std::make_shared<Args>();
   auto* sub = bake.add_subcommand("ssdf", "Per-vertex SSDF visibility (Embree), compressed by clustered PCA: a .wssdf file");
@@ -119,6 +119,7 @@ BakeTarget add_ssdf(CLI::App& bake) {
   sub->add_option("--seed", a->seed, "Random seed of the clustering")->capture_default_str();
   sub->add_option("--coefficients", a->coefficients, "Coefficient storage: fp32, fp16 or 8bit")->capture_default_str();
   sub->add_flag("--no-center", a->no_center, "Plain SVD per cluster (the paper), no mean subtracted");
+  sub->add_flag("--half-basis", a->half_basis, "Store cluster means and bases as fp16 (they dominate the size)");
   sub->add_option("--threads", a->threads, "Threads (0: all)")->capture_default_str();
   return {sub, [a, energy] {
             auto invalid = [](std::string message) {
@@ -148,6 +149,7 @@ BakeTarget add_ssdf(CLI::App& bake) {
             else return invalid(weft::format("unknown --coefficients '{}' (fp32, fp16, 8bit)", a->coefficients));
             c.seed = a->seed;
             c.center = !a->no_center;
+            c.half_basis = a->half_basis;
             c.threads = a->threads;
             auto loaded = scene::load_scene(std::filesystem::path(a->scene));
             if (!loaded) return bake_failed("ssdf", loaded.error());
