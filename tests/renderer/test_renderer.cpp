@@ -110,6 +110,45 @@ TEST_CASE("an OBJ mesh renders where its projection says, lit on the side facing
   weft::test::expect_no_validation_messages();
 }
 
+TEST_CASE("a glTF file renders: node transform, material colour and camera come from the file") {
+  const auto dir = std::filesystem::temp_directory_path() / ("weft-renderer-gltf-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  // A unit quad facing +z, moved 0.25 to the right by its node; a red material; a camera at z = 2.
+  std::ofstream(dir / "quad.gltf") << R"({
+    "asset": {"version": "2.0"},
+    "scene": 0, "scenes": [{"nodes": [0, 1]}],
+    "nodes": [{"mesh": 0, "translation": [0.25, 0, 0]}, {"camera": 0, "translation": [0, 0, 2]}],
+    "cameras": [{"type": "perspective", "perspective": {"yfov": 1.0471976, "aspectRatio": 1.0, "znear": 0.1, "zfar": 10}}],
+    "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0, 1], "metallicFactor": 0, "roughnessFactor": 1}}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": 0}]}],
+    "buffers": [{"byteLength": 108, "uri": "data:application/octet-stream;base64,AAAAvwAAAL8AAAAAAAAAPwAAAL8AAAAAAAAAPwAAAD8AAAAAAAAAvwAAAD8AAAAAAAAAAAAAAAAAAIA/AAAAAAAAAAAAAIA/AAAAAAAAAAAAAIA/AAAAAAAAAAAAAIA/AAABAAIAAAACAAMA"}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 48},
+                    {"buffer": 0, "byteOffset": 96, "byteLength": 12}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-0.5, -0.5, 0], "max": [0.5, 0.5, 0]},
+                  {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+                  {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}],
+    "extensionsUsed": ["KHR_lights_punctual"],
+    "extensions": {"KHR_lights_punctual": {"lights": [{"type": "directional", "intensity": 3.14159265}]}}
+  })";
+  auto s = scene::load_scene(dir / "quad.gltf");
+  REQUIRE_MESSAGE(s, (s ? "" : s.error().message));
+  s->output = {80, 80};
+  // The file has no sky and no light placed by a node: a black sky and a light along -z.
+  s->environment = scene::Environment{};
+  s->lights = {scene::DirectionalLight{.direction = {0, 0, -1}, .intensity = 3.14159265f}};
+  auto frame = shared_renderer().render(*s, {.aces = false});
+  REQUIRE_MESSAGE(frame, (frame ? "" : frame.error().message));
+  // The quad spans x in [-0.25, 0.75] at distance 2 under a 60° field of view: pixels
+  // 40 + 40 * x / (2 tan 30°).
+  auto px = [](float x) { return std::uint32_t(40.0f + 40.0f * x / (2.0f * std::tan(30.0f * pi / 180.0f))); };
+  const std::uint32_t inside = px(0.6f), outside = px(-0.4f);
+  CHECK(channel(frame->image, inside, 40, 0) > 200);  // red, lit
+  CHECK(channel(frame->image, inside, 40, 1) < 40);  // only the 4 % white specular
+  CHECK(channel(frame->image, outside, 40, 0) < 10);  // left of the moved quad: empty
+  std::filesystem::remove_all(dir);
+  weft::test::expect_no_validation_messages();
+}
+
 TEST_CASE("a second frame of the same scene uploads and compiles nothing new") {
   auto s = load(furnace);
   auto& r = shared_renderer();
