@@ -43,7 +43,7 @@ struct SkinConstants {
 };
 static_assert(sizeof(SkinConstants) == 128);
 
-enum : int { flag_albedo_map = 1, flag_normal_map = 2, flag_screen_curvature = 4 };
+enum : int { flag_albedo_map = 1, flag_normal_map = 2, flag_screen_curvature = 4, flag_reference = 8 };
 }  // namespace
 
 struct SkinGpuMaterial {
@@ -55,6 +55,8 @@ struct SkinGpuMaterial {
 struct SkinSSSPass::State {
   gpu::BindGroupLayout frame_layout;
   gpu::BindGroupLayout material_layout;
+  gpu::BindGroupLayout reference_layout;
+  gpu::Buffer no_reference;  // bound when a draw uses the LUT
   gpu::PipelineLayout layout;
   gpu::RenderPipeline pipeline;
   gpu::Sampler shadow_compare;
@@ -84,8 +86,16 @@ Result<SkinSSSPass> SkinSSSPass::create(gpu::Device& device) {
                    {1, BindingType::TextureSampler, ShaderStage::Fragment},
                    {2, BindingType::TextureSampler, ShaderStage::Fragment}}});
   if (!material_layout) return std::unexpected(material_layout.error());
+  auto reference_layout = device.create_bind_group_layout(
+      {.label = "skin-reference", .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Vertex}}});
+  if (!reference_layout) return std::unexpected(reference_layout.error());
+  const vec4 zero(0.0f);
+  auto no_reference = device.create_buffer_with_data(
+      {.label = "skin-no-reference", .size = sizeof(zero), .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
+      std::as_bytes(std::span(&zero, 1)));
+  if (!no_reference) return std::unexpected(no_reference.error());
   auto layout = device.create_pipeline_layout({.label = "skin",
-                                               .bind_group_layouts = {&*frame_layout, &*material_layout},
+                                               .bind_group_layouts = {&*frame_layout, &*material_layout, &*reference_layout},
                                                .push_constant_size = sizeof(SkinConstants)});
   if (!layout) return std::unexpected(layout.error());
   auto pipeline = device.create_render_pipeline({.label = "skin",
@@ -111,7 +121,8 @@ Result<SkinSSSPass> SkinSSSPass::create(gpu::Device& device) {
   auto texture = device.create_sampler({.label = "skin-texture", .address_mode = gpu::AddressMode::Repeat});
   if (!texture) return std::unexpected(texture.error());
   SkinSSSPass pass;
-  pass.state_ = std::make_shared<State>(State{std::move(*frame_layout), std::move(*material_layout), std::move(*layout),
+  pass.state_ = std::make_shared<State>(State{std::move(*frame_layout), std::move(*material_layout),
+                                              std::move(*reference_layout), std::move(*no_reference), std::move(*layout),
                                               std::move(*pipeline), std::move(*shadow_compare), std::move(*shadow_depth),
                                               std::move(*environment), std::move(*lut), std::move(*texture)});
   return pass;
@@ -139,6 +150,7 @@ Result<void> SkinSSSPass::add(RenderGraph& graph, std::span<const SkinDraw> draw
   struct Data {
     BufferHandle uniforms;
     TextureHandle shadow_map, environment, color, depth;
+    std::vector<BufferHandle> references;  // per draw; invalid: the LUT
   };
   auto& board = graph.blackboard();
   auto uniforms = board.get<BufferHandle>("frame_uniforms");
@@ -158,6 +170,11 @@ Result<void> SkinSSSPass::add(RenderGraph& graph, std::span<const SkinDraw> draw
   for (std::size_t i = 0; i < luts.size(); ++i)
     lut_handles.push_back(graph.import_texture(luts.size() == 1 ? std::string("skin_lut") : weft::format("skin_lut_{}", i),
                                                luts[i], gpu::Access::ShaderRead));
+  std::vector<BufferHandle> reference_handles;
+  for (std::size_t i = 0; i < draws.size(); ++i)
+    reference_handles.push_back(draws[i].reference ? graph.import_buffer(weft::format("skin_reference_{}", i),
+                                                                          draws[i].reference, gpu::Access::StorageRead)
+                                                   : BufferHandle{});
   auto state = state_;
   auto& data = graph.add_pass<Data>(
       "skin_sss",
@@ -166,6 +183,7 @@ Result<void> SkinSSSPass::add(RenderGraph& graph, std::span<const SkinDraw> draw
         d.shadow_map = b.read(*shadow_map, TextureUse::Sampled);
         d.environment = b.read(*environment, TextureUse::Sampled);
         for (auto h : lut_handles) b.read(h, TextureUse::Sampled);
+        for (auto h : reference_handles) d.references.push_back(h ? b.read(h, BufferUse::StorageRead) : h);
         d.color = b.write(*color, TextureUse::ColorAttachment);
         d.depth = b.write(*depth, TextureUse::DepthAttachment);
       },
@@ -178,14 +196,30 @@ Result<void> SkinSSSPass::add(RenderGraph& graph, std::span<const SkinDraw> draw
                          gpu::bind(3, res.view(d.environment), &state->environment)}});
         if (!group) return ctx.encoder().report_error(group.error());
         const auto& frame_group = ctx.keep(std::move(*group));
+        // The per-draw reference buffers (the reference mode), or a dummy for LUT draws.
+        auto none = ctx.device().create_bind_group(
+            {.label = "skin-no-reference", .layout = &state->reference_layout, .entries = {gpu::bind(0, state->no_reference)}});
+        if (!none) return ctx.encoder().report_error(none.error());
+        std::vector<const gpu::BindGroup*> reference_groups(draws.size(), &ctx.keep(std::move(*none)));
+        for (std::size_t i = 0; i < draws.size(); ++i) {
+          if (!d.references[i]) continue;
+          auto reference = ctx.device().create_bind_group({.label = "skin-reference",
+                                                           .layout = &state->reference_layout,
+                                                           .entries = {gpu::bind(0, res.buffer(d.references[i]))}});
+          if (!reference) return ctx.encoder().report_error(reference.error());
+          reference_groups[i] = &ctx.keep(std::move(*reference));
+        }
         auto pass = ctx.encoder().begin_render_pass(
             {.label = "skin_sss",
              .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}},
              .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .load = gpu::LoadOp::Load}});
         pass.set_pipeline(state->pipeline);
         pass.set_bind_group(0, frame_group);
-        for (const auto& draw : draws) {
+        for (std::size_t i = 0; i < draws.size(); ++i) {
+          const SkinDraw& draw = draws[i];
           const SkinGpuMaterial& mat = *materials[draw.material];
+          const int flags = mat.flags | (d.references[i] ? flag_reference : 0);
+          pass.set_bind_group(2, *reference_groups[i]);
           const skin::SkinMaterial& m = mat.params;
           // Uniform scale of the object (curvature is per mesh unit; mm_per_unit is per world unit).
           const float scale = std::cbrt(std::abs(glm::determinant(mat3(draw.model))));
@@ -196,7 +230,7 @@ Result<void> SkinSSSPass::add(RenderGraph& graph, std::span<const SkinDraw> draw
           c.params = vec4(m.roughness, scale > 0.0f && std::isfinite(scale) ? 1.0f / scale : 0.0f, to_lut, m.mm_per_unit);
           c.normal_blur = vec4(m.normal_blur, m.normal_strength);
           c.transmit = vec4(m.transmittance ? m.transmittance_scale : 0.0f, m.transmittance_shrink_mm / m.mm_per_unit,
-                            float(mat.flags + 16 * int(m.debug_view)), m.shadow_scatter_mm / m.mm_per_unit);
+                            float(flags + 16 * int(m.debug_view)), m.shadow_scatter_mm / m.mm_per_unit);
           pass.set_bind_group(1, mat.group);
           pass.push(c);
           pass.set_vertex_buffer(0, draw.mesh->vertices);
@@ -277,6 +311,16 @@ class SkinFeature final : public FeaturePass {
       for (std::size_t i = 1; i < problems.size(); ++i) message += "\n" + problems[i];
       return std::unexpected(Error{ErrorKind::Parse, std::move(message)});
     }
+    if (frame.uniforms.light_color != vec4(0.0f)) {
+      for (std::size_t i = 0; i < draws_.size(); ++i) {
+        if (frame.quality != Quality::Reference && !frame_materials_[draws_[i].material]->params.reference) continue;
+        const scene::Object& object = frame.scene.objects.at(frame.objects[i]);
+        auto reference = reference_for(frame.scene.meshes.at(object.mesh), object.transform,
+                                       frame_materials_[draws_[i].material]->params, vec3(frame.uniforms.light_direction));
+        if (!reference) return with_context(weft::format("skin reference for object '{}'", object.name), reference.error());
+        draws_[i].reference = *reference;
+      }
+    }
     if (frame.uniforms.light_color == vec4(0.0f))
       warnings_.push_back("skin materials without a directional (key) light show only their ambient term");
     return {};
@@ -316,6 +360,37 @@ class SkinFeature final : public FeaturePass {
     return *gpu_material;
   }
 
+  // Brute-force diffuse per vertex for the key light (the reference mode), one vec4 per vertex,
+  // computed once per mesh, light direction and scale.
+  Result<const gpu::Buffer*> reference_for(const scene::Mesh& mesh, const mat4& model, const skin::SkinMaterial& m,
+                                           vec3 towards_light) {
+    const mat3 linear(model);
+    const float scale = std::cbrt(std::abs(glm::determinant(linear)));
+    if (!(scale > 0.0f) || !std::isfinite(scale)) return fail(ErrorKind::InvalidArgument, "the object's transform is singular");
+    const vec3 light = glm::normalize(glm::inverse(linear) * towards_light);
+    const double mm_per_unit = double(m.mm_per_unit) * scale;
+    Hasher h;
+    h.bytes(mesh.positions.data(), mesh.positions.size() * sizeof(vec3));
+    h.bytes(mesh.normals.data(), mesh.normals.size() * sizeof(vec3));
+    h.bytes(mesh.indices.data(), mesh.indices.size() * sizeof(std::uint32_t));
+    h.value(light).value(mm_per_unit).value(m.lut.convention.normalization).value(m.lut.convention.variance_scale);
+    const std::uint64_t key = h.digest();
+    if (auto it = references_.find(key); it != references_.end()) return it->second.get();
+    log::info(weft::format("skin reference: brute-force scattering on mesh '{}' ({} vertices)", mesh.name,
+                           mesh.positions.size()));
+    // The physical profile, as the references of docs/skin.md.
+    auto diffuse = skin::mesh_reference(mesh, {.towards_light = light, .mm_per_unit = mm_per_unit});
+    if (!diffuse) return std::unexpected(diffuse.error());
+    std::vector<vec4> texels(diffuse->size());
+    for (std::size_t i = 0; i < texels.size(); ++i) texels[i] = vec4((*diffuse)[i], 1.0f);
+    auto buffer = device_->create_buffer_with_data(
+        {.label = "skin_reference_" + mesh.name, .size = texels.size() * sizeof(vec4),
+         .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
+        std::as_bytes(std::span(texels)));
+    if (!buffer) return std::unexpected(buffer.error());
+    return references_.emplace(key, std::make_unique<gpu::Buffer>(std::move(*buffer))).first->second.get();
+  }
+
   // The texture at `path` (nullptr when the path is empty), loaded once.
   Result<const gpu::Texture*> texture_for(const std::filesystem::path& path, gpu::Format format) {
     if (path.empty()) return nullptr;
@@ -341,6 +416,7 @@ class SkinFeature final : public FeaturePass {
   std::map<std::uint64_t, std::unique_ptr<gpu::Texture>> lut_textures_;  // by LUT content hash
   std::map<std::string, std::unique_ptr<gpu::Texture>> textures_;
   std::map<std::uint64_t, std::shared_ptr<SkinGpuMaterial>> materials_;  // by params + quality
+  std::map<std::uint64_t, std::unique_ptr<gpu::Buffer>> references_;     // by mesh, light and scale
   // This frame's inputs, alive until the graph has executed.
   std::vector<SkinDraw> draws_;
   std::vector<std::shared_ptr<SkinGpuMaterial>> frame_materials_;

@@ -103,6 +103,7 @@ Result<SkinMaterial> parse_skin_material(const scene::Material& material, Qualit
       for (DebugView d : {DebugView::None, DebugView::Curvature, DebugView::Diffuse, DebugView::Transmittance,
                           DebugView::Thickness})
         if (to_string(d) == debug) m.debug_view = d;
+      m.reference = r.boolean("reference", m.reference);
       if (auto lut = r.object("lut")) read_lut(*lut, m.lut);
       r.finish();
     }

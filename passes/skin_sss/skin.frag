@@ -13,6 +13,7 @@ layout(location = 1) in vec3 world_normal;
 layout(location = 2) in vec4 world_tangent;
 layout(location = 3) in vec2 uv;
 layout(location = 4) in float vertex_curvature;
+layout(location = 5) in vec3 vertex_reference;
 layout(location = 0) out vec4 out_color;
 
 const float F0_SKIN = 0.028;
@@ -95,7 +96,10 @@ void main() {
 
   vec3 ng = normalize(world_normal);
   vec3 v = normalize(frame.camera_position.xyz - world_position);
-  if (dot(ng, v) < 0.0) ng = -ng;  // two-sided, as the forward pass (open scans show their inside)
+  // Two-sided (open scans show their inside), decided by the triangle's winding, not by the
+  // interpolated normal: at a closed mesh's silhouette that normal may face slightly away
+  // from the camera, and flipping it there would light the rim as if from inside.
+  if (!gl_FrontFacing) ng = -ng;
 
   // Detail normal from the normal map, then one normal per channel: red scatters furthest,
   // so it sees the most blurred (geometric) surface.
@@ -137,6 +141,7 @@ void main() {
   lut.r = texture(skin_lut, lut_uv(vec2(dot(n_r, l) * 0.5 + 0.5, curvature))).r;
   lut.g = texture(skin_lut, lut_uv(vec2(dot(n_g, l) * 0.5 + 0.5, curvature))).g;
   lut.b = texture(skin_lut, lut_uv(vec2(dot(n_b, l) * 0.5 + 0.5, curvature))).b;
+  if ((flags & FLAG_REFERENCE) != 0) lut = vertex_reference;
 
   // The LUT already accounts for the local sphere of radius r shadowing itself past the
   // terminator (the light it wraps there comes through that sphere), but the shadow map finds

@@ -9,6 +9,7 @@ layout(set = 0, binding = 3) uniform sampler2D environment_map;
 layout(set = 1, binding = 0) uniform sampler2D skin_lut;           // rgb D(N·L, 1/r), a Beckmann
 layout(set = 1, binding = 1) uniform sampler2D albedo_map;         // sRGB texture (linear reads)
 layout(set = 1, binding = 2) uniform sampler2D normal_map;         // tangent space
+layout(set = 2, binding = 0) readonly buffer Reference { vec4 reference_diffuse[]; };  // per vertex
 
 layout(push_constant) uniform Draw {
   mat4 model;
@@ -23,6 +24,7 @@ layout(push_constant) uniform Draw {
 const int FLAG_ALBEDO_MAP = 1;
 const int FLAG_NORMAL_MAP = 2;
 const int FLAG_SCREEN_CURVATURE = 4;
+const int FLAG_REFERENCE = 8;  // brute-force diffuse per vertex instead of the LUT
 
 const int DEBUG_NONE = 0;
 const int DEBUG_CURVATURE = 1;

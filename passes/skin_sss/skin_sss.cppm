@@ -233,6 +233,9 @@ struct SkinMaterial {
   // meshes and lets light scattered a short way reach into cast shadows' edges.
   float shadow_scatter_mm = 2.0f;
   DebugView debug_view = DebugView::None;
+  // Shade with brute-force scattering per vertex (mesh_reference) instead of the LUT, as
+  // Quality::Reference does for every skin material: slow, for studies and comparisons.
+  bool reference = false;
   LutParams lut;
 };
 
@@ -251,6 +254,9 @@ struct SkinDraw {
   const frame::GpuMesh* mesh = nullptr;
   mat4 model{1.0f};
   std::uint32_t material = 0;  // index into the materials given to SkinSSSPass::add
+  // The reference mode: one vec4 per vertex of brute-force diffuse (mesh_reference for the
+  // key light), used instead of the LUT's RGB; null: the LUT.
+  const gpu::Buffer* reference = nullptr;
 };
 
 // A skin material on the GPU: its parameters and its bind group (LUT, albedo and normal
@@ -278,6 +284,8 @@ class SkinSSSPass {
 };
 
 // The FeaturePass for scene::MaterialType::Skin (registered in the renderer's features.cpp).
+// At Quality::Reference it shades with skin::mesh_reference per vertex instead of the LUT
+// (computed on the CPU for the frame's key light, cached per mesh, light and scale).
 Result<std::unique_ptr<FeaturePass>> create_skin_feature(gpu::Device& device);
 
 }  // namespace weft::passes
