@@ -136,7 +136,7 @@ Result<fs::path> write_pores(const fs::path& dir) {
 
 Result<scene::Scene> pores(const Options& o, const fs::path& normal_map) {
   scene::Scene s = base_scene(o, {-1.0f, -0.4f, -0.6f});
-  s.camera = {.position = {0.0f, 0.0f, 6.0f}, .target = {0.0f, 0.0f, 0.0f}, .fov_y_degrees = 30.0f};
+  s.camera = {.position = {0.0f, 0.0f, 24.0f}, .target = {0.0f, 0.0f, 0.0f}, .fov_y_degrees = 7.5f};
   auto sphere = scene::make_sphere(1.0f, 128);
   if (!sphere) return std::unexpected(sphere.error());
   for (auto& uv : sphere->uvs) uv *= vec2(2.0f, 1.0f);  // the pores twice around the ball
