@@ -1,8 +1,12 @@
 module;
+#include <cstdint>
 #include <expected>
 #include <string_view>
+#include <vector>
 module weft.feature;
 import weft.core;
+import weft.frame;
+import weft.scene;
 
 namespace weft {
 
@@ -20,6 +24,28 @@ Result<Quality> quality_from_string(std::string_view name) {
   for (Quality q : {Quality::Low, Quality::Medium, Quality::High, Quality::Reference})
     if (to_string(q) == name) return q;
   return fail(ErrorKind::InvalidArgument, "unknown quality '{}' (low, medium, high, reference)", name);
+}
+
+std::uint64_t mesh_content_hash(const scene::Mesh& mesh) {
+  Hasher h;
+  h.bytes(mesh.positions.data(), mesh.positions.size() * sizeof(vec3));
+  h.bytes(mesh.normals.data(), mesh.normals.size() * sizeof(vec3));
+  h.bytes(mesh.uvs.data(), mesh.uvs.size() * sizeof(vec2));
+  h.bytes(mesh.indices.data(), mesh.indices.size() * sizeof(std::uint32_t));
+  return h.digest();
+}
+
+frame::MeshData to_mesh_data(const scene::Mesh& mesh) {
+  frame::MeshData out{mesh.name, std::vector<frame::Vertex>(mesh.positions.size()), mesh.indices};
+  for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+    frame::Vertex& v = out.vertices[i];
+    v.position = mesh.positions[i];
+    if (i < mesh.normals.size()) v.normal = mesh.normals[i];
+    if (i < mesh.tangents.size()) v.tangent = mesh.tangents[i];
+    if (i < mesh.uvs.size()) v.uv = mesh.uvs[i];
+    if (i < mesh.curvature.size()) v.curvature = mesh.curvature[i];
+  }
+  return out;
 }
 
 }  // namespace weft

@@ -51,4 +51,9 @@ class FeaturePass {
 
 using FeatureFactory = Result<std::unique_ptr<FeaturePass>> (*)(gpu::Device& device);
 
+// Scene meshes in weft's vertex layout, and a key of their content for caches (the
+// renderer's and the features' GPU copies of the same mesh agree on it).
+std::uint64_t mesh_content_hash(const scene::Mesh& mesh);
+frame::MeshData to_mesh_data(const scene::Mesh& mesh);
+
 }  // namespace weft

@@ -107,9 +107,9 @@ Result<void> Renderer::State::ensure_passes(bool key_light, Quality quality) {
 
 Result<void> Renderer::State::upload_scene(const scene::Scene& scene) {
   for (const auto& mesh : scene.meshes) {
-    const auto key = detail::content_hash(mesh);
+    const auto key = mesh_content_hash(mesh);
     if (meshes.contains(key)) continue;
-    auto gpu_mesh = frame::upload_mesh(*device, detail::to_mesh_data(mesh));
+    auto gpu_mesh = frame::upload_mesh(*device, to_mesh_data(mesh));
     if (!gpu_mesh) return with_context(weft::format("uploading mesh '{}'", mesh.name), gpu_mesh.error());
     meshes.emplace(key, std::move(*gpu_mesh));
     ++stats.mesh_uploads;
@@ -180,7 +180,7 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
   shadow_casters.clear();
   feature_objects.clear();
   mesh_table.clear();
-  for (const auto& mesh : scene.meshes) mesh_table.push_back(&meshes.at(detail::content_hash(mesh)));
+  for (const auto& mesh : scene.meshes) mesh_table.push_back(&meshes.at(mesh_content_hash(mesh)));
   for (std::uint32_t i = 0; i < scene.objects.size(); ++i) {
     const auto& object = scene.objects[i];
     const auto& material = scene.materials.at(object.material);

@@ -70,9 +70,7 @@ class Renderer {
 
 // Shared by the implementation units (not exported).
 namespace weft::renderer::detail {
-std::uint64_t content_hash(const scene::Mesh& mesh);
 std::uint64_t content_hash(const scene::Environment& env);
-frame::MeshData to_mesh_data(const scene::Mesh& mesh);
 struct EnvironmentTexels {
   std::uint32_t width = 4, height = 2;
   std::vector<vec4> rgba;

@@ -17,28 +17,6 @@ import weft.scene;
 
 namespace weft::renderer::detail {
 
-std::uint64_t content_hash(const scene::Mesh& mesh) {
-  Hasher h;
-  h.bytes(mesh.positions.data(), mesh.positions.size() * sizeof(vec3));
-  h.bytes(mesh.normals.data(), mesh.normals.size() * sizeof(vec3));
-  h.bytes(mesh.uvs.data(), mesh.uvs.size() * sizeof(vec2));
-  h.bytes(mesh.indices.data(), mesh.indices.size() * sizeof(std::uint32_t));
-  return h.digest();
-}
-
-frame::MeshData to_mesh_data(const scene::Mesh& mesh) {
-  frame::MeshData out{mesh.name, std::vector<frame::Vertex>(mesh.positions.size()), mesh.indices};
-  for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
-    frame::Vertex& v = out.vertices[i];
-    v.position = mesh.positions[i];
-    if (i < mesh.normals.size()) v.normal = mesh.normals[i];
-    if (i < mesh.tangents.size()) v.tangent = mesh.tangents[i];
-    if (i < mesh.uvs.size()) v.uv = mesh.uvs[i];
-    if (i < mesh.curvature.size()) v.curvature = mesh.curvature[i];
-  }
-  return out;
-}
-
 std::uint64_t content_hash(const scene::Environment& env) {
   Hasher h;
   h.value(env.constant_color).value(env.rotation_degrees);

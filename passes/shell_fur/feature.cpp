@@ -27,28 +27,6 @@ namespace weft::passes {
 
 namespace {
 
-std::uint64_t mesh_key(const scene::Mesh& mesh) {
-  Hasher h;
-  h.bytes(mesh.positions.data(), mesh.positions.size() * sizeof(vec3));
-  h.bytes(mesh.normals.data(), mesh.normals.size() * sizeof(vec3));
-  h.bytes(mesh.uvs.data(), mesh.uvs.size() * sizeof(vec2));
-  h.bytes(mesh.indices.data(), mesh.indices.size() * sizeof(std::uint32_t));
-  return h.digest();
-}
-
-frame::MeshData mesh_data(const scene::Mesh& mesh) {
-  frame::MeshData out{mesh.name, std::vector<frame::Vertex>(mesh.positions.size()), mesh.indices};
-  for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
-    frame::Vertex& v = out.vertices[i];
-    v.position = mesh.positions[i];
-    if (i < mesh.normals.size()) v.normal = mesh.normals[i];
-    if (i < mesh.tangents.size()) v.tangent = mesh.tangents[i];
-    if (i < mesh.uvs.size()) v.uv = mesh.uvs[i];
-    if (i < mesh.curvature.size()) v.curvature = mesh.curvature[i];
-  }
-  return out;
-}
-
 class ShellFurFeature final : public FeaturePass {
  public:
   explicit ShellFurFeature(gpu::Device& device, ShellFurPass pass) : device_(&device), pass_(std::move(pass)) {}
@@ -134,7 +112,7 @@ class ShellFurFeature final : public FeaturePass {
 
     const scene::Mesh& mesh = frame.scene.meshes.at(object.mesh);
     const frame::GpuMesh* gpu_mesh = frame.meshes[object.mesh];
-    MeshAsset& asset = meshes_[Hasher{}.value(mesh_key(mesh)).value(m->uv_mapping).digest()];
+    MeshAsset& asset = meshes_[Hasher{}.value(mesh_content_hash(mesh)).value(m->uv_mapping).digest()];
     const bool generate = !mesh.has_uvs() || m->uv_mapping == FurUvMapping::Planar ||
                           m->uv_mapping == FurUvMapping::Spherical;
     scene::Mesh uv_mesh;
@@ -143,7 +121,7 @@ class ShellFurFeature final : public FeaturePass {
         uv_mesh = mesh;
         if (auto ok = generate_fur_uvs(uv_mesh, m->uv_mapping); !ok)
           return with_context(weft::format("material '{}'", material.name), ok.error());
-        auto uploaded = frame::upload_mesh(*device_, mesh_data(uv_mesh));
+        auto uploaded = frame::upload_mesh(*device_, to_mesh_data(uv_mesh));
         if (!uploaded) return std::unexpected(uploaded.error());
         asset.generated = std::make_unique<frame::GpuMesh>(std::move(*uploaded));
       }
