@@ -13,12 +13,13 @@ function(weft_add_shaders target)
     get_filename_component(fname ${src} NAME)
     string(MAKE_C_IDENTIFIER ${fname} ident)
     set(header ${gen_dir}/${fname}.spv.h)
+    # --depfile lists every #include, so editing an included .glsl rebuilds the SPIR-V.
     add_custom_command(
       OUTPUT ${header}
       COMMAND ${GLSLANG_VALIDATOR} --quiet -V --target-env vulkan1.3 -I${PROJECT_SOURCE_DIR}/shaders
-              -I${CMAKE_CURRENT_SOURCE_DIR} --vn spv_${ident} -o ${header} ${abs}
+              -I${CMAKE_CURRENT_SOURCE_DIR} --vn spv_${ident} --depfile ${header}.d -o ${header} ${abs}
       DEPENDS ${abs}
-      IMPLICIT_DEPENDS CXX ${abs}
+      DEPFILE ${header}.d
       COMMENT "glslang ${fname}"
       VERBATIM)
     list(APPEND generated_headers ${header})
