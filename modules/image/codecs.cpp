@@ -166,15 +166,10 @@ bool is_radiance(const std::uint8_t* data, std::size_t size) {
   return stbi_is_hdr_from_memory(data, static_cast<int>(size)) != 0;
 }
 
-Decoded<std::uint8_t> decode_ldr(const std::uint8_t* data, std::size_t size) {
-  Decoded<std::uint8_t> out;
-  if (size > static_cast<std::size_t>(INT32_MAX)) {
-    out.error = "file is larger than 2 GiB";
-    out.unsupported = true;
-    return out;
-  }
-  int w = 0, h = 0, c = 0;
-  stbi_uc* pixels = stbi_load_from_memory(data, static_cast<int>(size), &w, &h, &c, 0);
+// Takes ownership of what stb decoded: checks the size it reports, copies, frees.
+template <class T>
+Decoded<T> take_stb_pixels(T* pixels, int w, int h, int c) {
+  Decoded<T> out;
   if (pixels == nullptr) {
     out.error = stb_reason("unknown decoder error");
     return out;
@@ -192,6 +187,18 @@ Decoded<std::uint8_t> decode_ldr(const std::uint8_t* data, std::size_t size) {
   return out;
 }
 
+Decoded<std::uint8_t> decode_ldr(const std::uint8_t* data, std::size_t size) {
+  Decoded<std::uint8_t> out;
+  if (size > static_cast<std::size_t>(INT32_MAX)) {
+    out.error = "file is larger than 2 GiB";
+    out.unsupported = true;
+    return out;
+  }
+  int w = 0, h = 0, c = 0;
+  stbi_uc* pixels = stbi_load_from_memory(data, static_cast<int>(size), &w, &h, &c, 0);
+  return take_stb_pixels(pixels, w, h, c);
+}
+
 Decoded<float> decode_radiance(const std::uint8_t* data, std::size_t size) {
   Decoded<float> out;
   if (size > static_cast<std::size_t>(INT32_MAX)) {
@@ -205,21 +212,7 @@ Decoded<float> decode_radiance(const std::uint8_t* data, std::size_t size) {
   }
   int w = 0, h = 0, c = 0;
   float* pixels = stbi_loadf_from_memory(data, static_cast<int>(size), &w, &h, &c, 0);
-  if (pixels == nullptr) {
-    out.error = stb_reason("unknown decoder error");
-    return out;
-  }
-  if (w <= 0 || h <= 0 || c < 1 || c > 4) {  // stb accepts e.g. a Radiance "+X 0"
-    stbi_image_free(pixels);
-    out.error = "bad image size " + std::to_string(w) + "x" + std::to_string(h) + "x" + std::to_string(c);
-    return out;
-  }
-  out.width = w;
-  out.height = h;
-  out.channels = c;
-  out.pixels.assign(pixels, pixels + static_cast<std::size_t>(w) * h * c);
-  stbi_image_free(pixels);
-  return out;
+  return take_stb_pixels(pixels, w, h, c);
 }
 
 Decoded<float> decode_exr(const std::uint8_t* data, std::size_t size) {

@@ -1,6 +1,7 @@
 // The command line as a user meets it: bad input gives a one-line reason and a non-zero
 // exit; good input writes the image. Runs the real binaries.
 #include <doctest/doctest.h>
+#include "../support/run_command.h"
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -10,21 +11,7 @@
 #include <unistd.h>
 
 namespace {
-struct Run {
-  int exit_code;
-  std::string output;  // stdout and stderr together
-};
-
-Run run(const std::string& command) {
-  Run r{-1, {}};
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  REQUIRE(pipe);
-  std::array<char, 4096> buffer{};
-  while (std::fgets(buffer.data(), buffer.size(), pipe)) r.output += buffer.data();
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using weft::test::run_command;
 
 bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
 
@@ -46,7 +33,7 @@ const char* scene = R"({"version": 1, "output": {"width": 32, "height": 24},
 TEST_CASE("weft render writes a PNG, and --profile prints the pass table") {
   const auto dir = temp_dir();
   std::ofstream(dir / "s.json") << scene;
-  const auto r = run(cli + " render " + (dir / "s.json").string() + " -o " + (dir / "out.png").string() + " --profile");
+  const auto r = run_command(cli + " render " + (dir / "s.json").string() + " -o " + (dir / "out.png").string() + " --profile");
   CHECK_MESSAGE(r.exit_code == 0, r.output);
   CHECK(std::filesystem::file_size(dir / "out.png") > 50);
   CHECK(contains(r.output, "| forward |"));
@@ -69,7 +56,7 @@ TEST_CASE("bad input: missing scene, malformed JSON, unknown field, unwritable o
                         Case{"render " + s + " -o x.png --size 0x5", "--size"},
                         Case{"render " + s + " -o x.png --quality ultra", "ultra"},
                         Case{"graph " + (dir / "nope.json").string(), "nope.json"}}) {
-    const auto r = run(cli + " " + c.args);
+    const auto r = run_command(cli + " " + c.args);
     CHECK_MESSAGE(r.exit_code != 0, c.args);
     CHECK_MESSAGE(contains(r.output, c.expect), c.args << " -> " << r.output);
   }
@@ -79,7 +66,7 @@ TEST_CASE("bad input: missing scene, malformed JSON, unknown field, unwritable o
 TEST_CASE("weft graph prints the passes and writes DOT") {
   const auto dir = temp_dir();
   std::ofstream(dir / "s.json") << scene;
-  const auto r = run(cli + " graph " + (dir / "s.json").string() + " --dot " + (dir / "g.dot").string());
+  const auto r = run_command(cli + " graph " + (dir / "s.json").string() + " --dot " + (dir / "g.dot").string());
   CHECK_MESSAGE(r.exit_code == 0, r.output);
   CHECK(contains(r.output, "passes: forward background tonemap"));
   std::ifstream dot(dir / "g.dot");
@@ -90,12 +77,12 @@ TEST_CASE("weft graph prints the passes and writes DOT") {
 }
 
 TEST_CASE("weft info names the adapter; weft-triangle rejects a bad size and an unwritable path") {
-  const auto info = run(cli + " info");
+  const auto info = run_command(cli + " info");
   CHECK(info.exit_code == 0);
   CHECK(contains(info.output, "chosen:"));
   const std::string triangle = WEFT_TRIANGLE;
-  CHECK(run(triangle + " --size 12").exit_code != 0);
-  const auto r = run(triangle + " -o /nonexistent-dir/t.png --size 16x16");
+  CHECK(run_command(triangle + " --size 12").exit_code != 0);
+  const auto r = run_command(triangle + " -o /nonexistent-dir/t.png --size 16x16");
   CHECK(r.exit_code != 0);
   CHECK(contains(r.output, "/nonexistent-dir/t.png"));
 }

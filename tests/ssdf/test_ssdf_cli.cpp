@@ -2,6 +2,7 @@
 // reads back; contradictory or out-of-range knobs and a missing scene exit non-zero with a
 // reason. Runs the real binary (no GPU needed for a bake).
 #include <doctest/doctest.h>
+#include "../support/run_command.h"
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -13,21 +14,7 @@ import weft.core;
 import weft.ssdf;
 
 namespace {
-struct Run {
-  int exit_code;
-  std::string output;  // stdout and stderr together
-};
-
-Run run(const std::string& command) {
-  Run r{-1, {}};
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  REQUIRE(pipe);
-  std::array<char, 4096> buffer{};
-  while (std::fgets(buffer.data(), buffer.size(), pipe)) r.output += buffer.data();
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using weft::test::run_command;
 
 const std::string cli = WEFT_CLI;
 const char* scene = R"({"version": 1,
@@ -42,7 +29,7 @@ TEST_CASE("weft bake ssdf writes a .wssdf the loader reads; bad knobs are refuse
   std::filesystem::create_directories(dir);
   std::ofstream(dir / "s.json") << scene;
   const std::string base = cli + " bake ssdf " + (dir / "s.json").string() + " -o " + (dir / "s.wssdf").string();
-  const auto r = run(base + " --resolution 8 --clusters 4 --components 3 --coefficients fp16");
+  const auto r = run_command(base + " --resolution 8 --clusters 4 --components 3 --coefficients fp16");
   REQUIRE_MESSAGE(r.exit_code == 0, r.output);
   CHECK(r.output.find("smaller") != std::string::npos);
   auto asset = weft::ssdf::read_file(dir / "s.wssdf");
@@ -50,7 +37,7 @@ TEST_CASE("weft bake ssdf writes a .wssdf the loader reads; bad knobs are refuse
   CHECK(asset->resolution == 8);
   CHECK(asset->cpca.clusters.size() == 4);
   CHECK(asset->cpca.total_components() <= 12);
-  const auto energy = run(base + " --resolution 6 --energy 0.9 --seeding farthest --no-center --half-basis");
+  const auto energy = run_command(base + " --resolution 6 --energy 0.9 --seeding farthest --no-center --half-basis");
   CHECK_MESSAGE(energy.exit_code == 0, energy.output);
   auto half = weft::ssdf::read_file(dir / "s.wssdf");
   REQUIRE(half);
@@ -58,11 +45,11 @@ TEST_CASE("weft bake ssdf writes a .wssdf the loader reads; bad knobs are refuse
   for (const char* bad : {" --components 3 --energy 0.9", " --energy 1.5", " --resolution 0", " --seeding random",
                           " --coefficients fp8"}) {
     CAPTURE(bad);
-    const auto e = run(base + bad);
+    const auto e = run_command(base + bad);
     CHECK(e.exit_code != 0);
     CHECK(!e.output.empty());
   }
-  const auto missing = run(cli + " bake ssdf " + (dir / "none.json").string() + " -o " + (dir / "x.wssdf").string());
+  const auto missing = run_command(cli + " bake ssdf " + (dir / "none.json").string() + " -o " + (dir / "x.wssdf").string());
   CHECK(missing.exit_code != 0);
   CHECK(missing.output.find("none.json") != std::string::npos);
   std::filesystem::remove_all(dir);
