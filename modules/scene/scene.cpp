@@ -50,12 +50,14 @@ std::string_view to_string(MaterialType type) {
     case MaterialType::Fur: return "fur";
     case MaterialType::Skin: return "skin";
     case MaterialType::NeuralBtf: return "neural_btf";
+    case MaterialType::Ssdf: return "ssdf";
   }
   return "standard";
 }
 
 std::optional<MaterialType> material_type_from_string(std::string_view name) {
-  for (MaterialType t : {MaterialType::Standard, MaterialType::Fur, MaterialType::Skin, MaterialType::NeuralBtf}) {
+  for (MaterialType t : {MaterialType::Standard, MaterialType::Fur, MaterialType::Skin, MaterialType::NeuralBtf,
+                         MaterialType::Ssdf}) {
     if (to_string(t) == name) return t;
   }
   return std::nullopt;

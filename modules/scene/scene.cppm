@@ -207,8 +207,8 @@ struct Environment {
 // ---- materials, objects ------------------------------------------------------------------
 
 // The feature a material draws with; each has its own pass(es) in the renderer.
-enum class MaterialType : std::uint8_t { Standard, Fur, Skin, NeuralBtf };
-// "standard", "fur", "skin", "neural_btf" — the names scene files use.
+enum class MaterialType : std::uint8_t { Standard, Fur, Skin, NeuralBtf, Ssdf };
+// "standard", "fur", "skin", "neural_btf", "ssdf" — the names scene files use.
 [[nodiscard]] std::string_view to_string(MaterialType type);
 [[nodiscard]] std::optional<MaterialType> material_type_from_string(std::string_view name);
 

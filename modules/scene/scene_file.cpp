@@ -170,7 +170,7 @@ Material read_material(JsonReader& r, const std::string& name) {
     r.error(fmt::format("expected an object, got {}", json_type_name(r.json())));
     return m;
   }
-  const std::string type = r.string("type", "standard", {"standard", "fur", "skin", "neural_btf"});
+  const std::string type = r.string("type", "standard", {"standard", "fur", "skin", "neural_btf", "ssdf"});
   m.type = material_type_from_string(type).value_or(MaterialType::Standard);
   if (m.type != MaterialType::Standard) {
     // The feature's own pass reads and checks these (JsonReader on params at json_path).

@@ -236,7 +236,7 @@ TEST_CASE("scene file: every problem of a file is reported at once, one per line
       "$.meshes.n: a mesh needs a \"path\" or a \"primitive\"",
       "$.meshes.o: give either \"path\" or \"primitive\", not both",
       "$.meshes.o.path: file not found",
-      "$.materials.a.type: 'velvet' is not one of: standard, fur, skin, neural_btf",
+      "$.materials.a.type: 'velvet' is not one of: standard, fur, skin, neural_btf, ssdf",
       "$.materials.b.roughness: 2 is out of range [0, 1]",
       "$.materials.b.shininess: unknown field",
       "$.objects[0].mesh: missing required field",
