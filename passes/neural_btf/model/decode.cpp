@@ -1,5 +1,8 @@
 module;
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <random>
 #include <cstddef>
 #include <span>
 #include <vector>
@@ -54,6 +57,40 @@ vec3 decode(const NeuralBtf& model, std::size_t texel, const vec3& light, const 
   input[model.latent_size + 3] = so.y;
   const float scale = model.output_scale * (model.texel_scales.empty() ? 1.0f : model.texel_scales[texel]);
   return glm::max(evaluate(model.decoder, input), vec3(0.0f)) * scale;
+}
+
+NeuralBtf random_model(const RandomModelOptions& options) {
+  std::mt19937_64 rng(options.seed);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  NeuralBtf model;
+  model.width = options.width;
+  model.height = options.height;
+  model.latent_size = options.latent_size;
+  model.output_scale = options.output_scale;
+  std::uint32_t inputs = options.latent_size + 4;
+  std::vector<std::uint32_t> widths = options.hidden;
+  widths.push_back(3);
+  for (std::uint32_t outputs : widths) {
+    DenseLayer layer{inputs, outputs, std::vector<float>(std::size_t(inputs) * outputs), std::vector<float>(outputs)};
+    const float limit = std::sqrt(6.0f / float(inputs));  // He-uniform keeps ReLU activations O(1)
+    for (float& w : layer.weights) w = unit(rng) * limit;
+    for (float& b : layer.bias) b = 0.1f * unit(rng);
+    model.decoder.layers.push_back(std::move(layer));
+    inputs = outputs;
+  }
+  const std::size_t texels = model.texels();
+  const std::size_t count = options.clusters ? options.clusters : texels;
+  model.latents.resize(count * options.latent_size);
+  for (float& v : model.latents) v = unit(rng);
+  if (options.clusters) {
+    model.cluster_ids.resize(texels);
+    for (std::size_t t = 0; t < texels; ++t) model.cluster_ids[t] = std::uint32_t(rng() % options.clusters);
+  }
+  if (options.scales) {
+    model.texel_scales.resize(texels);
+    for (float& s : model.texel_scales) s = 1.0f + 0.5f * unit(rng);
+  }
+  return model;
 }
 
 }  // namespace weft::btf
