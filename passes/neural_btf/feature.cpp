@@ -1,0 +1,135 @@
+// The neural BTF FeaturePass: the materials' parameters, their models (loaded once per file
+// and uploaded once), and the frame's draw list.
+module;
+#include <chrono>
+#include <cstdint>
+#include <expected>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+#include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
+module weft.pass.neural_btf;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+import weft.scene;
+import weft.feature;
+import weft.btf.model;
+
+namespace weft::passes {
+namespace {
+
+class NeuralBtfFeature final : public FeaturePass {
+ public:
+  NeuralBtfFeature(gpu::Device& device, NeuralBtfPass pass) : device_(&device), pass_(std::move(pass)) {}
+
+  [[nodiscard]] std::string_view name() const override { return "neural_btf"; }
+
+  Result<void> prepare(const FeatureFrame& frame) override {
+    warnings_.clear();
+    draws_.clear();
+    frame_materials_.clear();
+    std::map<std::uint32_t, std::uint32_t> slot_of;  // scene material -> frame material slot
+    std::vector<std::string> problems;
+    for (std::uint32_t object_index : frame.objects) {
+      const scene::Object& object = frame.scene.objects.at(object_index);
+      auto slot = slot_of.find(object.material);
+      if (slot == slot_of.end()) {
+        auto material = material_for(frame.scene.materials.at(object.material), frame.quality);
+        if (!material) {
+          problems.push_back(material.error().message);
+          slot_of[object.material] = ~0u;
+          continue;
+        }
+        slot = slot_of.emplace(object.material, std::uint32_t(frame_materials_.size())).first;
+        frame_materials_.push_back(*material);
+      }
+      if (slot->second == ~0u) continue;
+      const scene::Mesh& mesh = frame.scene.meshes.at(object.mesh);
+      if (!mesh.has_uvs())
+        warnings_.push_back(weft::format("neural_btf object '{}': mesh '{}' has no UVs, so it shows one texel",
+                                         object.name, mesh.name));
+      draws_.push_back({frame.meshes[object.mesh], object.transform, slot->second});
+    }
+    if (!problems.empty()) {
+      std::string message = problems.front();
+      for (std::size_t i = 1; i < problems.size(); ++i) message += "\n" + problems[i];
+      return std::unexpected(Error{ErrorKind::Parse, std::move(message)});
+    }
+    if (frame.uniforms.light_color == vec4(0.0f))
+      warnings_.push_back("neural_btf materials without a directional (key) light show only their ambient term");
+    return {};
+  }
+
+  Result<void> add_passes(RenderGraph& graph, const FeatureFrame&) override { return pass_.add(graph, draws_, frame_materials_); }
+
+  [[nodiscard]] std::vector<std::string> warnings() const override { return warnings_; }
+
+ private:
+  Result<std::shared_ptr<NeuralBtfGpuMaterial>> material_for(const scene::Material& material, Quality quality) {
+    auto parsed = btf::parse_neural_btf_material(material, quality);
+    if (!parsed) return std::unexpected(parsed.error());
+    if (parsed->mode == btf::BtfMode::Reference)
+      return fail(ErrorKind::Unsupported,
+                  "neural_btf material '{}' ({}.mode): the reference mode needs weft.btf's BTF loader, which is not in "
+                  "this build yet",
+                  material.name, material.json_path);
+    auto model = model_for(parsed->model);
+    if (!model) return with_context(weft::format("neural_btf material '{}' ({}.model)", material.name, material.json_path),
+                                    model.error());
+    Hasher h;
+    h.str(material.name).str(material.params.dump()).str(material.base_dir.string()).str(material.json_path);
+    h.value(std::uint8_t(quality)).value(*model);
+    const std::uint64_t key = h.digest();
+    if (auto it = materials_.find(key); it != materials_.end()) return it->second;
+    auto gpu_material = pass_.create_material(*device_, *parsed, **model);
+    if (!gpu_material) return std::unexpected(gpu_material.error());
+    materials_.emplace(key, *gpu_material);
+    return *gpu_material;
+  }
+
+  // The model of a .wbtf file on the GPU, loaded again only when the file changes.
+  Result<const gpu::Buffer*> model_for(const std::filesystem::path& path) {
+    std::error_code ec;
+    const auto stamp = std::filesystem::last_write_time(path, ec);
+    const auto size = std::filesystem::file_size(path, ec);
+    Hasher h;
+    h.str(path.string()).value(stamp.time_since_epoch().count()).value(ec ? 0 : size);
+    const std::uint64_t key = h.digest();
+    if (auto it = models_.find(key); it != models_.end()) return it->second.get();
+    auto model = btf::load_wbtf(path);
+    if (!model) return std::unexpected(model.error());
+    log::info(weft::format("neural BTF '{}': {} x {} texels, {} latents{}, decoder {} parameters", path.filename().string(),
+                           model->width, model->height, model->latent_count(), model->clustered() ? " (clustered)" : "",
+                           model->decoder.parameter_count()));
+    auto buffer = upload_model(*device_, *model, "neural_btf_" + path.filename().string());
+    if (!buffer) return with_context(path.string(), buffer.error());
+    return models_.emplace(key, std::make_unique<gpu::Buffer>(std::move(*buffer))).first->second.get();
+  }
+
+  gpu::Device* device_;
+  NeuralBtfPass pass_;
+  std::map<std::uint64_t, std::unique_ptr<gpu::Buffer>> models_;  // by path, time and size
+  std::map<std::uint64_t, std::shared_ptr<NeuralBtfGpuMaterial>> materials_;
+  // This frame's inputs, alive until the graph has executed.
+  std::vector<NeuralBtfDraw> draws_;
+  std::vector<std::shared_ptr<NeuralBtfGpuMaterial>> frame_materials_;
+  std::vector<std::string> warnings_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<FeaturePass>> create_neural_btf_feature(gpu::Device& device) {
+  auto pass = NeuralBtfPass::create(device);
+  if (!pass) return std::unexpected(pass.error());
+  return std::make_unique<NeuralBtfFeature>(device, std::move(*pass));
+}
+
+}  // namespace weft::passes

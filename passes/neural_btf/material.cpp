@@ -1,0 +1,74 @@
+// The "neural_btf" material's fields, read with scene::JsonReader so every problem names its
+// JSON path; quality presets set the knobs (ambient decode, texel filter) the material leaves out.
+module;
+#include <cstdint>
+#include <expected>
+#include <filesystem>
+#include <initializer_list>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
+module weft.pass.neural_btf;
+import weft.core;
+import weft.scene;
+import weft.feature;
+
+namespace weft::btf {
+
+std::string_view to_string(BtfMode m) { return m == BtfMode::Neural ? "neural" : "reference"; }
+std::string_view to_string(TexelFilter f) { return f == TexelFilter::Nearest ? "nearest" : "bilinear"; }
+std::string_view to_string(BtfDebugView d) {
+  switch (d) {
+    case BtfDebugView::None: return "none";
+    case BtfDebugView::Texel: return "texel";
+    case BtfDebugView::Uv: return "uv";
+    case BtfDebugView::Frame: return "frame";
+  }
+  return "?";
+}
+
+Result<NeuralBtfMaterial> parse_neural_btf_material(const scene::Material& material, Quality quality) {
+  try {
+    NeuralBtfMaterial m;
+    m.ambient = quality != Quality::Low;
+    m.filter = quality == Quality::High || quality == Quality::Reference ? TexelFilter::Bilinear : TexelFilter::Nearest;
+    scene::JsonErrors errors;
+    const std::string path = material.json_path.empty() ? weft::format("$.materials.{}", material.name) : material.json_path;
+    scene::JsonReader r(material.params, path, errors, material.base_dir);
+    if (!r.is_object()) {
+      r.error(weft::format("a neural_btf material is an object, got {}", scene::json_type_name(material.params)));
+    } else {
+      const std::string mode = r.string("mode", "neural", {"neural", "reference"});
+      m.mode = mode == "reference" ? BtfMode::Reference : BtfMode::Neural;
+      if (m.mode == BtfMode::Neural) r.require("model");
+      m.model = r.path("model");
+      if (m.mode == BtfMode::Reference) r.require("btf");
+      m.btf = r.path("btf");
+      const scene::Range tiling{.min = 0, .max = 1e6, .min_exclusive = true};
+      if (const nlohmann::json* s = r.value("uv_scale"); s && s->is_number()) {
+        m.uv_scale = vec2(float(r.number("uv_scale", 1.0, tiling)));
+      } else {
+        m.uv_scale = r.vec2_of("uv_scale", m.uv_scale, tiling);
+      }
+      m.exposure = float(r.number("exposure", m.exposure, {.min = 0, .max = 1e6}));
+      m.tint = r.vec3_of("tint", m.tint, {.min = 0, .max = 1e6});
+      m.ambient = r.boolean("ambient", m.ambient);
+      m.filter = r.string("filter", std::string(to_string(m.filter)), {"nearest", "bilinear"}) == "bilinear"
+                     ? TexelFilter::Bilinear
+                     : TexelFilter::Nearest;
+      m.shadow = r.boolean("shadow", m.shadow);
+      const std::string debug = r.string("debug_view", "none", {"none", "texel", "uv", "frame"});
+      for (BtfDebugView d : {BtfDebugView::None, BtfDebugView::Texel, BtfDebugView::Uv, BtfDebugView::Frame})
+        if (to_string(d) == debug) m.debug_view = d;
+      r.finish();
+    }
+    if (!errors.empty()) return std::unexpected(errors.to_error(weft::format("neural_btf material '{}'", material.name)));
+    return m;
+  } catch (const std::exception& e) {
+    return fail(ErrorKind::Parse, "neural_btf material '{}': {}", material.name, e.what());
+  }
+}
+
+}  // namespace weft::btf

@@ -1,0 +1,134 @@
+// weft.pass.neural_btf — NeuralBTFMaterial: a neural BTF (weft.btf.model, a .wbtf file)
+// decoded per fragment. The decoder MLP runs in the fragment shader with every weight, latent,
+// cluster id and scale in one read-only storage buffer; ω_i (the key light, and optionally
+// ω_i = n for the ambient term) and ω_o go into the surface's tangent frame. Also here: the
+// decode kernel (a compute shader with the same decoder) that tests compare with the CPU
+// decode and the benchmark times, and the FeaturePass for scene::MaterialType::NeuralBtf.
+// docs/neural-btf.md, "The material and its shader", has the choices and the measurements.
+//
+// Why the fragment shader and not a compute pass: the decoder needs only what the rasteriser
+// already interpolates (UV, normal, tangent, position), so a fragment shader decodes each
+// covered pixel once with no G-buffer; a compute pass would need one (UV + frame per pixel)
+// that weft's forward renderer does not have. The cost is overdraw: hidden fragments of the
+// same object decode too (the depth test runs before the shader for this pipeline, so only
+// fragments drawn before their occluder pay).
+module;
+#include <cstddef>
+#include <cstdint>
+#include <expected>
+#include <filesystem>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+export module weft.pass.neural_btf;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+import weft.scene;
+import weft.feature;
+import weft.btf.model;
+
+export namespace weft::btf {
+
+enum class BtfMode : std::uint8_t { Neural, Reference };
+enum class TexelFilter : std::uint8_t { Nearest, Bilinear };
+enum class BtfDebugView : std::uint8_t { None, Texel, Uv, Frame };
+std::string_view to_string(BtfMode m);
+std::string_view to_string(TexelFilter f);
+std::string_view to_string(BtfDebugView d);
+
+// A "neural_btf" material's fields (docs/neural-btf.md lists them with their JSON names).
+struct NeuralBtfMaterial {
+  std::filesystem::path model;  // .wbtf, relative to the scene file
+  vec2 uv_scale{1.0f};          // how many times the texel grid repeats over the mesh's UVs
+  BtfMode mode = BtfMode::Neural;
+  std::filesystem::path btf;    // the raw BTF the reference mode samples
+  float exposure = 1.0f;        // multiplies the result
+  vec3 tint{1.0f};              // multiplies the result per channel
+  // Quality knobs (each costs decodes per pixel; the presets set them unless the material does):
+  bool ambient = true;          // one more decode (ω_i = n) times the environment's SH irradiance
+  TexelFilter filter = TexelFilter::Nearest;  // bilinear: 4 decodes per light, blended
+  bool shadow = true;           // the key light's shadow map (3x3 PCF)
+  BtfDebugView debug_view = BtfDebugView::None;
+};
+
+// Reads a scene material's params with JsonReader: every problem in one Parse error, each at
+// its JSON path. `quality` sets the knobs the material leaves out: low = no ambient decode,
+// nearest; medium = ambient, nearest; high and reference = ambient, bilinear.
+Result<NeuralBtfMaterial> parse_neural_btf_material(const scene::Material& material, Quality quality = Quality::Medium);
+
+}  // namespace weft::btf
+
+export namespace weft::passes {
+
+// The shader's limits (btf_decode.glsl): layers and the widest layer (or latent + 4).
+inline constexpr std::uint32_t kBtfMaxLayers = 8;
+inline constexpr std::uint32_t kBtfMaxWidth = 128;
+
+// The model as the shader reads it (one std430 buffer; see btf_decode.glsl): 32-bit words.
+// InvalidArgument when the model is invalid or exceeds the shader's limits.
+Result<std::vector<std::uint32_t>> pack_model(const btf::NeuralBtf& model);
+Result<gpu::Buffer> upload_model(gpu::Device& device, const btf::NeuralBtf& model, std::string_view label);
+
+// One decode query: ω_i and ω_o in the tangent frame (need not be normalised) and a texel.
+struct DecodeQuery {
+  vec3 light;
+  float texel = 0.0f;  // the texel index as a float (exact below 2^24)
+  vec3 view;
+  float pad = 0.0f;
+};
+static_assert(sizeof(DecodeQuery) == 32);
+
+// The decoder as a compute kernel over a buffer of queries (btf_decode.comp): the shader
+// code of the material, without the rasteriser. For tests and the throughput benchmark.
+class BtfDecodeKernel {
+ public:
+  static Result<BtfDecodeKernel> create(gpu::Device& device);
+  // Uploads the queries, decodes, reads back one RGBA per query (A = 1).
+  Result<std::vector<vec4>> decode(gpu::Device& device, const gpu::Buffer& model, std::span<const DecodeQuery> queries) const;
+  // For timing: decodes `count` queries already in `queries` into `results` (Storage buffers),
+  // submits and waits. Returns the wall-clock seconds of submit + wait.
+  Result<double> run(gpu::Device& device, const gpu::Buffer& model, const gpu::Buffer& queries, const gpu::Buffer& results,
+                     std::uint32_t count) const;
+
+ private:
+  struct State;
+  std::shared_ptr<State> state_;
+};
+
+// One object the pass draws.
+struct NeuralBtfDraw {
+  const frame::GpuMesh* mesh = nullptr;
+  mat4 model{1.0f};
+  std::uint32_t material = 0;  // index into the materials given to NeuralBtfPass::add
+};
+
+// A material on the GPU: its parameters, its model buffer and their bind group.
+struct NeuralBtfGpuMaterial;
+
+// The graph pass: draws neural BTF objects into "scene_color"/"scene_depth" (loading what
+// the forward pass drew), reading "frame_uniforms" and "shadow_map".
+class NeuralBtfPass {
+ public:
+  static Result<NeuralBtfPass> create(gpu::Device& device);
+  // `model` (from upload_model) must outlive the material.
+  Result<std::shared_ptr<NeuralBtfGpuMaterial>> create_material(gpu::Device& device, const btf::NeuralBtfMaterial& params,
+                                                                const gpu::Buffer& model) const;
+  // `draws` and `materials` must outlive the graph's execution; the materials' model buffers
+  // are imported and declared as storage reads.
+  Result<void> add(RenderGraph& graph, std::span<const NeuralBtfDraw> draws,
+                   std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials) const;
+
+ private:
+  struct State;
+  std::shared_ptr<State> state_;
+};
+
+// The FeaturePass for scene::MaterialType::NeuralBtf (registered in the renderer's
+// features.cpp). Models are loaded once per file (path and modification time).
+Result<std::unique_ptr<FeaturePass>> create_neural_btf_feature(gpu::Device& device);
+
+}  // namespace weft::passes

@@ -1,0 +1,300 @@
+// weft.pass.neural_btf on lavapipe, under validation + synchronization validation: the shader's
+// decoder (the decode kernel, same GLSL as the material) against the CPU decode on a grid of
+// texels and directions including θ = 0 and θ = 90°; a flat quad seen straight on through the
+// renderer against the CPU decode per pixel (key light, then the ambient term alone); the
+// renderer adds the pass only for scenes with neural_btf materials; material errors.
+#include <doctest/doctest.h>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+#include <glm/glm.hpp>
+import weft.core;
+import weft.gpu;
+import weft.image;
+import weft.scene;
+import weft.renderer;
+import weft.btf.model;
+import weft.pass.neural_btf;
+import weft.test.gpu;
+
+using namespace weft;
+
+namespace {
+
+gpu::Device& device() { return weft::test::gpu().device; }
+
+renderer::Renderer& shared_renderer() {
+  static auto r = renderer::Renderer::create(device());
+  REQUIRE(r);
+  return *r;
+}
+
+std::filesystem::path temp_dir() {
+  const auto dir = std::filesystem::temp_directory_path() / "weft-test-neural-btf-gpu";
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+scene::Scene load(const std::string& json) {
+  auto desc = scene::parse_scene(json, temp_dir());
+  REQUIRE_MESSAGE(desc, (desc ? "" : desc.error().message));
+  auto s = scene::load_scene(*desc);
+  REQUIRE_MESSAGE(s, (s ? "" : s.error().message));
+  return std::move(*s);
+}
+
+vec3 tangent_direction(float theta_deg, float phi_deg) {
+  const float t = glm::radians(theta_deg), p = glm::radians(phi_deg);
+  return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
+}
+
+// A paper-shaped decoder (8 + 4 -> 106 -> 106 -> 106 -> 3) whose outputs mostly lie in
+// (0, 1), so that an 8-bit frame can show them: the last layer is damped and lifted.
+btf::NeuralBtf displayable_model(std::uint32_t clusters, bool scales) {
+  auto m = btf::random_model({.width = 4, .height = 4, .clusters = clusters, .scales = scales, .seed = 11});
+  auto& last = m.decoder.layers.back();
+  for (float& w : last.weights) w *= 0.2f;
+  for (float& b : last.bias) b = 0.35f;
+  m.output_scale = 0.8f;
+  return m;
+}
+
+// A 2 x 2 quad facing +z at the origin, seen from z = 40 with a 3.4° lens (nearly
+// orthographic), lit by `lights`; the material is `material`.
+std::string quad_scene(const std::string& material, const std::string& lights, const char* sky = "[0, 0, 0]",
+                       std::uint32_t size = 64) {
+  return weft::format(R"({{"version": 1, "output": {{"width": {0}, "height": {0}}},
+    "camera": {{"position": [0, 0, 40], "target": [0, 0, 0], "fov": 3.4, "near": 30, "far": 50}},
+    "environment": {{"color": {1}}},
+    "lights": {2},
+    "meshes": {{"quad": {{"primitive": "plane", "size": 2, "subdivisions": 1}}}},
+    "materials": {{"cloth": {3}}},
+    "objects": [{{"name": "quad", "mesh": "quad", "material": "cloth", "transform": {{"rotation_degrees": [90, 0, 0]}}}}]}})",
+                      size, sky, lights, material);
+}
+
+double linear(const image::Image8& img, std::uint32_t x, std::uint32_t y, int c) {
+  return image::srgb_to_linear(img.at(x, y, std::uint32_t(c)) / 255.0f);
+}
+
+// What the material computes at pixel (x, y) of a `size`² frame of quad_scene, on the CPU: the
+// ray hits z = 0 at p; uv from the plane primitive's mapping; ω_i, ω_o in the mesh's tangent
+// frame (rotated like the object). `ok` is false off the quad and near texel edges.
+struct PixelInputs {
+  bool ok = false;
+  std::size_t texel = 0;
+  vec3 light, view;
+};
+PixelInputs pixel_inputs(const scene::Scene& s, std::uint32_t x, std::uint32_t y, std::uint32_t size, vec3 towards_light,
+                         const btf::NeuralBtf& m, float uv_scale) {
+  const mat4 inverse_vp = glm::inverse(s.camera.projection(1.0f) * s.camera.view());
+  const vec2 ndc((x + 0.5f) / float(size) * 2.0f - 1.0f, (y + 0.5f) / float(size) * 2.0f - 1.0f);
+  const vec4 a = inverse_vp * vec4(ndc, 0.0f, 1.0f), b = inverse_vp * vec4(ndc, 1.0f, 1.0f);
+  const vec3 o = vec3(a) / a.w, d = glm::normalize(vec3(b) / b.w - o);
+  const vec3 p = o + d * (-o.z / d.z);
+  // Plane primitive: (x, 0, z) with uv ((x / size) + 0.5, (z / size) + 0.5); rotated 90° about
+  // x, mesh z becomes world -y.
+  const vec2 uv(p.x / 2.0f + 0.5f, -p.y / 2.0f + 0.5f);
+  PixelInputs in;
+  if (uv.x < 0.02f || uv.x > 0.98f || uv.y < 0.02f || uv.y > 0.98f) return in;
+  const vec2 st = uv * uv_scale * vec2(float(m.width), float(m.height));
+  const vec2 f = st - glm::floor(st);
+  if (glm::any(glm::lessThan(f, vec2(0.03f))) || glm::any(glm::greaterThan(f, vec2(0.97f)))) return in;
+  const int tx = int(std::floor(st.x)) % int(m.width), ty = int(std::floor(st.y)) % int(m.height);
+  in.texel = std::size_t(ty) * m.width + std::size_t(tx);
+  const mat3 rotate(s.objects[0].transform);
+  const vec3 n = glm::normalize(rotate * s.meshes[0].normals[0]);
+  const vec4 tangent = s.meshes[0].tangents[0];
+  vec3 t = rotate * vec3(tangent);
+  t = glm::normalize(t - n * glm::dot(n, t));
+  const vec3 bt = glm::cross(n, t) * (tangent.w < 0.0f ? -1.0f : 1.0f);
+  const vec3 v = glm::normalize(s.camera.position - p);
+  in.view = vec3(glm::dot(v, t), glm::dot(v, bt), glm::dot(v, n));
+  in.light = vec3(glm::dot(towards_light, t), glm::dot(towards_light, bt), glm::dot(towards_light, n));
+  in.ok = true;
+  return in;
+}
+
+std::string save_model(const btf::NeuralBtf& m, const std::string& name) {
+  const auto path = temp_dir() / name;
+  auto ok = btf::save_wbtf(m, path);
+  REQUIRE_MESSAGE(ok, (ok ? "" : ok.error().message));
+  return path.string();
+}
+
+}  // namespace
+
+TEST_CASE("the shader's decoder equals the CPU decode on a grid of texels and directions, θ = 0 and 90° included") {
+  auto kernel = passes::BtfDecodeKernel::create(device());
+  REQUIRE_MESSAGE(kernel, (kernel ? "" : kernel.error().message));
+  for (int variant = 0; variant < 2; ++variant) {
+    const btf::NeuralBtf model = variant == 0 ? btf::random_model({.width = 5, .height = 3, .seed = 5})
+                                              : btf::random_model({.width = 6, .height = 4, .clusters = 7, .scales = true,
+                                                                   .output_scale = 2.5f, .seed = 6});
+    auto buffer = passes::upload_model(device(), model, "test-model");
+    REQUIRE_MESSAGE(buffer, (buffer ? "" : buffer.error().message));
+    std::vector<passes::DecodeQuery> queries;
+    const float thetas[] = {0.0f, 1e-3f, 15.0f, 45.0f, 75.0f, 89.9f, 90.0f};
+    const float phis[] = {0.0f, 70.0f, 200.0f};
+    for (std::size_t t = 0; t < model.texels(); ++t)
+      for (float ti : thetas)
+        for (float to : thetas)
+          for (float p : phis)
+            queries.push_back({tangent_direction(ti, p), float(t), tangent_direction(to, 300.0f - p), 0.0f});
+    queries.push_back({vec3(0.0f), 0.0f, vec3(0.0f, 0.0f, 3.0f), 0.0f});  // zero vector: stereo (0, 0) on both
+    auto gpu = kernel->decode(device(), *buffer, queries);
+    REQUIRE_MESSAGE(gpu, (gpu ? "" : gpu.error().message));
+    double worst = 0.0, largest = 0.0;
+    int nonzero = 0;
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+      const auto& q = queries[i];
+      const vec3 cpu = btf::decode(model, std::size_t(q.texel), q.light, q.view);
+      const vec3 got((*gpu)[i]);
+      for (int c = 0; c < 3; ++c) {
+        REQUIRE(std::isfinite(got[c]));
+        const double tolerance = 1e-4 * std::max(1.0, double(std::abs(cpu[c])));
+        worst = std::max(worst, std::abs(double(got[c]) - cpu[c]) / std::max(1.0, double(std::abs(cpu[c]))));
+        largest = std::max(largest, double(std::abs(cpu[c])));
+        if (cpu[c] > 0.0f) ++nonzero;
+        CHECK_MESSAGE(std::abs(got[c] - cpu[c]) <= tolerance, "query " << i << " channel " << c << ": gpu " << got[c]
+                                                                        << " cpu " << cpu[c]);
+      }
+    }
+    MESSAGE("variant " << variant << ": " << queries.size() << " queries, worst relative difference " << worst
+                       << ", largest output " << largest);
+    CHECK(nonzero > int(queries.size()) / 4);  // not a comparison of zeros (ReLU-clamped outputs)
+  }
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("a straight-on quad through the renderer: every covered pixel is the CPU decode times the light") {
+  const btf::NeuralBtf model = displayable_model(5, true);
+  const std::string path = save_model(model, "quad.wbtf");
+  const vec3 towards_light = glm::normalize(vec3(-0.4f, 0.3f, 1.0f));
+  const std::string lights = weft::format(R"([{{"type": "directional", "direction": [{}, {}, {}], "intensity": 1}}])",
+                                          -towards_light.x, -towards_light.y, -towards_light.z);
+  auto s = load(quad_scene(weft::format(R"({{"type": "neural_btf", "model": "{}", "ambient": false, "shadow": false}})", path),
+                           lights));
+  auto frame = shared_renderer().render(s, {.quality = Quality::Medium, .aces = false});
+  REQUIRE_MESSAGE(frame, (frame ? "" : frame.error().message));
+  CHECK(std::find(frame->passes.begin(), frame->passes.end(), "neural_btf") != frame->passes.end());
+  int checked = 0, lit = 0;
+  for (std::uint32_t y = 0; y < 64; ++y)
+    for (std::uint32_t x = 0; x < 64; ++x) {
+      const PixelInputs in = pixel_inputs(s, x, y, 64, towards_light, model, 1.0f);
+      if (!in.ok) continue;
+      const vec3 expected = glm::clamp(btf::decode(model, in.texel, in.light, in.view), vec3(0.0f), vec3(1.0f));
+      for (int c = 0; c < 3; ++c) {
+        const double got = linear(frame->image, x, y, c);
+        CHECK_MESSAGE(std::abs(got - expected[c]) <= 0.004 + 0.02 * expected[c],
+                      "pixel (" << x << ", " << y << ") texel " << in.texel << " channel " << c << ": got " << got
+                                << ", CPU decode " << expected[c]);
+        if (expected[c] > 0.05f) ++lit;
+      }
+      ++checked;
+    }
+  CHECK(checked > 1500);
+  CHECK(lit > 1500);
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("the ambient term alone: a constant sky c gives decode(ω_i = n, ω_o) times π c; tiling repeats texels") {
+  const btf::NeuralBtf model = displayable_model(0, false);
+  const std::string path = save_model(model, "ambient.wbtf");
+  const float sky = 0.25f;
+  auto s = load(quad_scene(weft::format(R"({{"type": "neural_btf", "model": "{}", "ambient": true, "uv_scale": [2, 2],
+                                           "filter": "nearest"}})",
+                                        path),
+                           "[]", "[0.25, 0.25, 0.25]"));
+  auto frame = shared_renderer().render(s, {.quality = Quality::Medium, .aces = false});
+  REQUIRE_MESSAGE(frame, (frame ? "" : frame.error().message));
+  int checked = 0;
+  for (std::uint32_t y = 0; y < 64; ++y)
+    for (std::uint32_t x = 0; x < 64; ++x) {
+      const PixelInputs in = pixel_inputs(s, x, y, 64, vec3(0, 0, 1), model, 2.0f);
+      if (!in.ok) continue;
+      const vec3 expected = glm::clamp(btf::decode(model, in.texel, vec3(0, 0, 1), in.view) * (pi * sky), vec3(0.0f),
+                                       vec3(1.0f));
+      for (int c = 0; c < 3; ++c)
+        CHECK_MESSAGE(std::abs(linear(frame->image, x, y, c) - expected[c]) <= 0.004 + 0.02 * expected[c],
+                      "pixel (" << x << ", " << y << ") channel " << c);
+      ++checked;
+    }
+  CHECK(checked > 1000);
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("the renderer adds the neural_btf pass only for scenes that use the material") {
+  const std::string path = save_model(displayable_model(3, false), "culling.wbtf");
+  const std::string light = R"([{"type": "directional", "direction": [0, 0, -1], "intensity": 1}])";
+  auto with = load(quad_scene(weft::format(R"({{"type": "neural_btf", "model": "{}"}})", path), light));
+  auto report = shared_renderer().describe(with, {.quality = Quality::Low});
+  REQUIRE_MESSAGE(report, (report ? "" : report.error().message));
+  CHECK(report->passes == std::vector<std::string>{"shadow_map", "forward", "neural_btf", "background", "tonemap"});
+  CHECK(report->dot.find("neural_btf_model") != std::string::npos);
+  auto plain = load(quad_scene(R"({"type": "standard"})", light));
+  auto other = shared_renderer().describe(plain, {.quality = Quality::Low});
+  REQUIRE(other);
+  CHECK(std::find(other->passes.begin(), other->passes.end(), "neural_btf") == other->passes.end());
+  CHECK(other->dot.find("neural_btf") == std::string::npos);
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("material errors name their JSON path; a corrupt model names the file and the material") {
+  const std::string light = R"([{"type": "directional", "direction": [0, 0, -1], "intensity": 1}])";
+  auto bad = load(quad_scene(
+      R"({"type": "neural_btf", "model": "missing.wbtf", "uv_scale": -1, "mode": "fast", "tint": [1, 2], "colour": 1})",
+      light));
+  auto frame = shared_renderer().render(bad, {.quality = Quality::Low});
+  REQUIRE_FALSE(frame);
+  const std::string message = frame.error().message;
+  CHECK(message.find("$.materials.cloth.model") != std::string::npos);
+  CHECK(message.find("missing.wbtf") != std::string::npos);
+  CHECK(message.find("$.materials.cloth.uv_scale") != std::string::npos);
+  CHECK(message.find("$.materials.cloth.mode") != std::string::npos);
+  CHECK(message.find("$.materials.cloth.tint") != std::string::npos);
+  CHECK(message.find("colour") != std::string::npos);
+
+  auto missing = load(quad_scene(R"({"type": "neural_btf", "uv_scale": 2})", light));
+  auto no_model = shared_renderer().render(missing, {.quality = Quality::Low});
+  REQUIRE_FALSE(no_model);
+  CHECK(no_model.error().message.find("$.materials.cloth") != std::string::npos);
+  CHECK(no_model.error().message.find("model") != std::string::npos);
+
+  // A file that is not a .wbtf: the error names the material, its field and the file.
+  const auto junk = temp_dir() / "junk.wbtf";
+  {
+    std::FILE* f = std::fopen(junk.string().c_str(), "wb");
+    REQUIRE(f);
+    std::fputs("not a model", f);
+    std::fclose(f);
+  }
+  auto corrupt = load(quad_scene(weft::format(R"({{"type": "neural_btf", "model": "{}"}})", junk.string()), light));
+  auto corrupt_frame = shared_renderer().render(corrupt, {.quality = Quality::Low});
+  REQUIRE_FALSE(corrupt_frame);
+  const std::string e = corrupt_frame.error().message;
+  CHECK(e.find("neural_btf material 'cloth' ($.materials.cloth.model)") != std::string::npos);
+  CHECK(e.find("junk.wbtf: not a weft neural BTF file") != std::string::npos);
+
+  // Parsing alone: the quality presets set the knobs the material leaves out.
+  const std::string path = save_model(displayable_model(3, false), "presets.wbtf");
+  auto presets = load(quad_scene(weft::format(R"({{"type": "neural_btf", "model": "{}", "uv_scale": 3}})", path), light));
+  const auto& material = presets.materials.at(presets.objects[0].material);
+  auto low = btf::parse_neural_btf_material(material, Quality::Low);
+  auto high = btf::parse_neural_btf_material(material, Quality::High);
+  REQUIRE(low);
+  REQUIRE(high);
+  CHECK(low->uv_scale == vec2(3.0f));
+  CHECK_FALSE(low->ambient);
+  CHECK(low->filter == btf::TexelFilter::Nearest);
+  CHECK(high->ambient);
+  CHECK(high->filter == btf::TexelFilter::Bilinear);
+  auto pinned = load(quad_scene(weft::format(R"({{"type": "neural_btf", "model": "{}", "filter": "nearest"}})", path), light));
+  auto pinned_high = btf::parse_neural_btf_material(pinned.materials.at(pinned.objects[0].material), Quality::High);
+  REQUIRE(pinned_high);
+  CHECK(pinned_high->filter == btf::TexelFilter::Nearest);
+  weft::test::expect_no_validation_messages();
+}
