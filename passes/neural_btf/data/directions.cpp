@@ -1,5 +1,7 @@
+// The UBO2003 / UTIA direction sampling and direction names for error messages.
 module;
 #include <array>
+#include <string>
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -24,6 +26,11 @@ std::vector<Direction> ubo2003_directions() {
     }
   }
   return out;
+}
+
+std::string describe(Direction d) {
+  return weft::format("θ {:.1f}°, φ {:.1f}°", d.theta * 180.0f / std::numbers::pi_v<float>,
+                      d.phi * 180.0f / std::numbers::pi_v<float>);
 }
 
 }  // namespace weft::btf
