@@ -5,18 +5,32 @@
 // seedings) and a sweep of k and m; plus the fast distance transform against the exact one.
 //   weft-bench-ssdf [--resolution N] [--threads T] [--teapot PATH] [--quick] [--only TEXT]
 // (--only: just the compression rows whose name contains TEXT)
+//   weft-bench-ssdf --lighting [--size PIXELS] [--samples N] [--runs R] [--quick]
+// (SSDFLightingPass on lavapipe: the teapot resampled to 12,801 vertices + floor under the
+// shipped HDR: rendered-image RMSE against the Embree Monte-Carlo reference for the paper's
+// settings, k/m, lobes, shading modes and resolutions, and the pass's GPU time per frame.)
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <map>
+#include <optional>
 #include <string>
 #include <vector>
 #include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
 import weft.core;
 import weft.cluster;
+import weft.image;
+import weft.gpu;
 import weft.scene;
 import weft.ssdf;
+import weft.renderer;
+import weft.pass.ssdf_lighting;
+import weft.example.fur_resample;
 
 using namespace weft;
 
@@ -33,7 +47,11 @@ struct Row {
 };
 }  // namespace
 
+int lighting_bench(int argc, char** argv);
+
 int main(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--lighting") return lighting_bench(argc, argv);
   std::uint32_t resolution = 64;
   std::size_t threads = 0;
   bool quick = false;
@@ -177,5 +195,270 @@ int main(int argc, char** argv) {
                 100.0 * (1.0 - double(bytes) / double(raw_bytes)), e.rmse, e.max_abs, 100.0 * e.sign_error_rate, cpca_s);
     std::fflush(stdout);
   }
+  return 0;
+}
+
+// ---- --lighting: SSDFLightingPass against the Monte-Carlo reference ----------------------
+
+namespace {
+
+double median(std::vector<double> v) {
+  if (v.empty()) return -1.0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+struct LightingRow {
+  std::string name;
+  nlohmann::json material;  // the "ssdf" material's params
+};
+
+// Linear green of the renderer's 8-bit sRGB output against the reference (clamped to the
+// 8-bit range), over pixels whose 3x3 neighbourhood shows one object in the reference.
+double relative_rmse(const image::Image8& img, const ssdf::ReferenceImage& ref, float scale) {
+  double err = 0.0, sum = 0.0;
+  std::size_t n = 0;
+  for (std::uint32_t y = 1; y + 1 < ref.height; ++y)
+    for (std::uint32_t x = 1; x + 1 < ref.width; ++x) {
+      const std::uint32_t object = ref.object[y * ref.width + x];
+      bool interior = object != ~0u;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) interior = interior && ref.object[(y + dy) * ref.width + (x + dx)] == object;
+      if (!interior) continue;
+      const double truth = std::min(ref.radiance[y * ref.width + x].y * scale, 1.0f);
+      const double got = image::srgb_to_linear(img.at(x, y, 1) / 255.0f);
+      err += (got - truth) * (got - truth);
+      sum += truth;
+      ++n;
+    }
+  return n ? std::sqrt(err / double(n)) / (sum / double(n)) : -1.0;
+}
+
+double relative_rmse(const ssdf::ReferenceImage& a, const ssdf::ReferenceImage& b) {
+  double err = 0.0, sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < a.radiance.size(); ++i)
+    if (a.mask[i]) {
+      err += std::pow(double(a.radiance[i].y) - b.radiance[i].y, 2.0);
+      sum += b.radiance[i].y;
+      ++n;
+    }
+  return n ? std::sqrt(err / double(n)) / (sum / double(n)) : -1.0;
+}
+
+}  // namespace
+
+int lighting_bench(int argc, char** argv) {
+  std::uint32_t size = 192, samples = 1024, runs = 7;
+  bool quick = false;
+  const char* shared = std::getenv("WEFT_SHARED_DATA");
+  std::filesystem::path teapot = std::filesystem::path(shared ? shared : WEFT_DEFAULT_SHARED_DATA) / "meshes/teapot/teapot.obj";
+  std::filesystem::path hdr = std::filesystem::path(WEFT_SOURCE_DIR) / "assets/env/royal_esplanade_1k.hdr";
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--lighting") continue;
+    if (arg == "--size" && i + 1 < argc) size = std::uint32_t(std::atoi(argv[++i]));
+    else if (arg == "--samples" && i + 1 < argc) samples = std::uint32_t(std::atoi(argv[++i]));
+    else if (arg == "--runs" && i + 1 < argc) runs = std::uint32_t(std::atoi(argv[++i]));
+    else if (arg == "--teapot" && i + 1 < argc) teapot = argv[++i];
+    else if (arg == "--quick") quick = true;
+    else {
+      std::fprintf(stderr, "usage: weft-bench-ssdf --lighting [--size PIXELS] [--samples N] [--runs R] [--teapot PATH] [--quick]\n");
+      return 2;
+    }
+  }
+  log::set_level(std::getenv("WEFT_LOG") ? std::getenv("WEFT_LOG") : "warn");
+  // The renderer's bake cache is where this benchmark puts its bakes: one visibility bake and
+  // distance transform per resolution, compressed per row, written under the key the
+  // feature computes, so the renderer loads them instead of baking again.
+  const std::filesystem::path cache = std::filesystem::temp_directory_path() / "weft-bench-ssdf-cache";
+  std::filesystem::create_directories(cache);
+  setenv("WEFT_SSDF_CACHE", cache.c_str(), 1);
+
+  auto pot = scene::load_mesh(teapot, {.normalize_to_unit_box = true});
+  if (!pot) {
+    std::fprintf(stderr, "weft-bench-ssdf: %s\n", pot.error().what().c_str());
+    return 1;
+  }
+  auto resampled = examples::resample(*pot, quick ? 2000 : 12801);
+  if (!resampled) {
+    std::fprintf(stderr, "weft-bench-ssdf: resampling: %s\n", resampled.error().what().c_str());
+    return 1;
+  }
+  auto env = scene::load_environment(hdr);
+  if (!env) {
+    std::fprintf(stderr, "weft-bench-ssdf: %s\n", env.error().what().c_str());
+    return 1;
+  }
+  scene::Scene s;
+  const float lift = -resampled->bounds.min.y;
+  s.meshes.push_back(std::move(*resampled));
+  s.meshes.push_back(*scene::make_plane(3.0f, quick ? 16 : 64));
+  s.objects.push_back({.name = "teapot", .mesh = 0, .material = 0,
+                       .transform = scene::Transform{.translation = {0.0f, lift, 0.0f}}.matrix()});
+  s.objects.push_back({.name = "floor", .mesh = 1, .material = 0, .transform = mat4(1.0f)});
+  s.materials.push_back({.name = "ssdf", .type = scene::MaterialType::Ssdf});
+  s.materials[0].json_path = "$.materials.ssdf";
+  s.camera = {.position = {1.5f, 1.25f, 2.0f}, .target = {0.0f, 0.3f, 0.0f}, .fov_y_degrees = 38.0f, .near = 0.3f, .far = 20.0f};
+  s.environment = std::move(*env);
+  s.output = {.width = size, .height = size};
+  const std::vector<std::uint32_t> objects = {0, 1};
+  std::printf("# weft-bench-ssdf --lighting\n\nscene: teapot resampled to %zu v + floor %zu v; environment %s; %u x %u "
+              "pixels; reference %u rays a pixel\n\n",
+              s.meshes[0].vertex_count(), s.meshes[1].vertex_count(), hdr.filename().c_str(), size, size, samples);
+
+  // The reference: environment only (no key light), Lambert albedo 0.8; scaled so that the
+  // 99th percentile of the visible surfaces is 0.85 (the 8-bit output's range).
+  const vec3 albedo(0.8f);
+  const std::vector<vec3> albedos(2, albedo);
+  auto camera = [&] {
+    const mat4 vp = s.camera.projection(1.0f) * s.camera.view();
+    return ssdf::ReferenceCamera{glm::inverse(vp), s.camera.position, size, size};
+  }();
+  auto radiance = [&](const vec3& d) { return s.environment.radiance(d); };
+  auto t = std::chrono::steady_clock::now();
+  auto reference = ssdf::reference_image(s, camera, albedos, radiance, std::nullopt, {.samples = samples, .seed = 1});
+  const double reference_s = seconds_since(t);
+  auto second = ssdf::reference_image(s, camera, albedos, radiance, std::nullopt, {.samples = samples, .seed = 2, .progress = false});
+  if (!reference || !second) {
+    std::fprintf(stderr, "weft-bench-ssdf: reference failed\n");
+    return 1;
+  }
+  std::vector<double> greens;
+  for (std::size_t i = 0; i < reference->radiance.size(); ++i)
+    if (reference->mask[i]) greens.push_back(reference->radiance[i].y);
+  std::sort(greens.begin(), greens.end());
+  const float scale = 0.85f / float(greens[greens.size() * 99 / 100]);
+  s.environment.intensity *= scale;
+  const double noise = relative_rmse(*reference, *second) / std::sqrt(2.0);
+  std::printf("Reference: %.1f s; its own Monte-Carlo noise (two seeds, relative RMSE / √2): %.4f; environment "
+              "intensity scaled by %.3f.\n\n", reference_s, noise, scale);
+  {
+    image::Image8 out = image::Image8::filled(size, size, 4);
+    for (std::size_t i = 0; i < reference->radiance.size(); ++i) {
+      const vec3 c = reference->radiance[i] * scale;
+      for (int k = 0; k < 3; ++k) out.pixels[i * 4 + std::size_t(k)] = std::uint8_t(std::lround(255.0f * image::linear_to_srgb(std::clamp(c[k], 0.0f, 1.0f))));
+      out.pixels[i * 4 + 3] = 255;
+    }
+    (void)image::save_png(cache / "reference.png", out);
+  }
+
+  // Bakes per resolution (visibility + distance transform once each).
+  struct Raw {
+    ssdf::BakeMesh probes;
+    cluster::Matrix ssdf;
+  };
+  std::map<std::uint32_t, Raw> raws;
+  auto raw_for = [&](std::uint32_t resolution) -> const Raw* {
+    if (auto it = raws.find(resolution); it != raws.end()) return &it->second;
+    auto occluders = ssdf::merge_scene(s);
+    auto probes = ssdf::merge_objects(s, objects);
+    if (!occluders || !probes) return nullptr;
+    const ssdf::DirectionGrid grid(resolution);
+    auto start = std::chrono::steady_clock::now();
+    auto vis = ssdf::bake_visibility(*occluders, ssdf::vertex_probes(*probes), grid, {.progress = false});
+    if (!vis) return nullptr;
+    const double vis_s = seconds_since(start);
+    start = std::chrono::steady_clock::now();
+    auto m = ssdf::signed_distances(grid, *vis, 0, false, false);
+    std::printf("(bake %ux%u: visibility %.1f s, distance transform %.1f s)\n\n", resolution, resolution, vis_s,
+                seconds_since(start));
+    return &raws.emplace(resolution, Raw{std::move(*probes), std::move(m)}).first->second;
+  };
+
+  auto device_instance = gpu::Instance::create({.application_name = "weft-bench-ssdf"});
+  if (!device_instance) return 1;
+  auto adapter = device_instance->request_adapter();
+  if (!adapter) return 1;
+  auto device = adapter->request_device({.label = "bench"});
+  if (!device) return 1;
+  std::printf("Device: %s (%s); GPU times from timestamps, median of %u frames after one warm-up.\n\n",
+              adapter->info().name.c_str(), adapter->info().driver.c_str(), runs);
+
+  // The forward pass drawing the same geometry with a standard material: the baseline.
+  double forward_ms = -1.0;
+  {
+    scene::Scene plain = s;
+    plain.materials[0] = {.name = "plain", .type = scene::MaterialType::Standard};
+    auto r = renderer::Renderer::create(*device);
+    std::vector<double> ms;
+    for (std::uint32_t i = 0; i <= runs; ++i) {
+      auto f = r->render(plain, {.aces = false});
+      if (!f) return 1;
+      for (const auto& p : f->stats.passes)
+        if (p.name == "forward" && i > 0) ms.push_back(p.gpu_ms);
+    }
+    forward_ms = median(ms);
+  }
+
+  using nlohmann::json;
+  auto mat = [](std::uint32_t res, std::uint32_t lobes, const char* shading, json bake) {
+    bake["resolution"] = res;
+    return json{{"albedo", {0.8, 0.8, 0.8}}, {"shading", shading}, {"lobes", lobes}, {"bake", bake}};
+  };
+  const std::uint32_t full = quick ? 16 : 64;
+  const json def = {{"clusters", 32}, {"components", 16}};
+  std::vector<LightingRow> rows = {
+      {"paper 1: k 64, m 48, farthest, no centring", mat(full, 32, "pixel", {{"clusters", 64}, {"components", 48}, {"seeding", "farthest"}, {"center", false}})},
+      {"paper 2: k 64, 90 % energy, farthest, no centring", mat(full, 32, "pixel", {{"clusters", 64}, {"components", 65536}, {"energy", 0.9}, {"seeding", "farthest"}, {"center", false}})},
+      {"k 64, m 48, k-means++", mat(full, 32, "pixel", {{"clusters", 64}, {"components", 48}})},
+      {"k 64, m 8, k-means++", mat(full, 32, "pixel", {{"clusters", 64}, {"components", 8}})},
+      {"k 16, m 16, k-means++, fp16 basis + coefficients", mat(full, 32, "pixel", {{"clusters", 16}, {"components", 16}, {"coefficients", "fp16"}, {"half_basis", true}})},
+      {"k 32, m 4 (default k)", mat(full, 32, "pixel", {{"clusters", 32}, {"components", 4}})},
+      {"k 32, m 16 (default), 32 lobes", mat(full, 32, "pixel", def)},
+  };
+  for (std::uint32_t lobes : {4u, 8u, 16u, 48u}) rows.push_back({weft::format("default, {} lobes", lobes), mat(full, lobes, "pixel", def)});
+  rows.push_back({"default, 32 lobes, vertex shading", mat(full, 32, "vertex", def)});
+  rows.push_back({"default, 16 lobes, vertex shading", mat(full, 16, "vertex", def)});
+  if (!quick)
+    for (std::uint32_t res : {16u, 32u}) rows.push_back({weft::format("default, 32 lobes, {}x{} directions", res, res), mat(res, 32, "pixel", def)});
+
+  std::printf("| setting | directions | lobes | shading | compressed | smaller by | SSDF RMSE (rad) | sign errors | image RMSE (relative) | ssdf_lighting GPU ms | / forward pass |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const auto& row : rows) {
+    s.materials[0].params = row.material;
+    auto parsed = ssdf::parse_ssdf_material(s.materials[0], Quality::Medium);
+    if (!parsed) {
+      std::fprintf(stderr, "%s: %s\n", row.name.c_str(), parsed.error().what().c_str());
+      return 1;
+    }
+    const Raw* raw = raw_for(parsed->bake.resolution);
+    if (!raw) return 1;
+    const auto file = cache / ("ssdf-" + hex64(ssdf::bake_key(s, objects, parsed->bake)) + ".wssdf");
+    double ssdf_rmse = -1.0, sign = -1.0, ratio = 0.0;
+    std::size_t bytes = 0;
+    {
+      auto c = ssdf::compress(raw->probes, raw->ssdf, parsed->bake.compression);
+      if (!c) return 1;
+      const auto e = ssdf::measure_error(raw->ssdf, c->cpca);
+      ssdf_rmse = e.rmse, sign = e.sign_error_rate;
+      bytes = c->cpca.compressed_bytes();
+      ratio = 1.0 - double(bytes) / double(raw->ssdf.values.size() * sizeof(float));
+      if (!std::filesystem::exists(file))
+        if (auto ok = ssdf::write_file(file, ssdf::make_asset(parsed->bake.resolution, parsed->bake.compression, std::move(c->cpca))); !ok)
+          return 1;
+    }
+    auto r = renderer::Renderer::create(*device);
+    std::vector<double> ms;
+    image::Image8 first;
+    for (std::uint32_t i = 0; i <= runs; ++i) {
+      auto f = r->render(s, {.aces = false});
+      if (!f) {
+        std::fprintf(stderr, "%s: %s\n", row.name.c_str(), f.error().what().c_str());
+        return 1;
+      }
+      if (i == 0) first = f->image;
+      for (const auto& p : f->stats.passes)
+        if (p.name == "ssdf_lighting" && i > 0) ms.push_back(p.gpu_ms);
+    }
+    const double image_rmse = relative_rmse(first, *reference, scale);
+    std::printf("| %s | %ux%u | %u | %s | %s | %.2f %% | %.4f | %.3f %% | %.4f | %.2f | %.2fx |\n", row.name.c_str(),
+                parsed->bake.resolution, parsed->bake.resolution, parsed->lobes, std::string(ssdf::to_string(parsed->shading)).c_str(),
+                megabytes(bytes).c_str(), 100.0 * ratio, ssdf_rmse, 100.0 * sign, image_rmse, median(ms), median(ms) / forward_ms);
+    std::fflush(stdout);
+    if (row.name.starts_with("k 32, m 16 (default)")) (void)image::save_png(cache / "ssdf.png", first);
+  }
+  std::printf("\nForward pass (standard material, same geometry): %.2f GPU ms. Images: %s/{reference,ssdf}.png\n", forward_ms,
+              cache.c_str());
   return 0;
 }

@@ -11,6 +11,7 @@ import weft.feature;
 import weft.scene;
 import weft.pass.skin_sss;
 import weft.pass.shell_fur;
+import weft.pass.ssdf_lighting;
 import weft.pass.neural_btf;
 
 namespace weft::renderer::detail {
@@ -20,6 +21,7 @@ FeatureFactory feature_factory(scene::MaterialType type) {
     case scene::MaterialType::Fur: return &passes::create_shell_fur_feature;
     case scene::MaterialType::Skin: return &passes::create_skin_feature;
     case scene::MaterialType::NeuralBtf: return &passes::create_neural_btf_feature;
+    case scene::MaterialType::Ssdf: return &passes::create_ssdf_feature;
     default: return nullptr;
   }
 }

@@ -93,6 +93,26 @@ std::size_t DirectionGrid::cell_of(const vec3& direction) const {
   return j * n_ + i;
 }
 
+DirectionGrid::Taps DirectionGrid::bilinear(const vec3& direction) const {
+  const vec2 p = sphere_to_square(direction);
+  const float cell = 2.0f / float(n_);
+  // Continuous cell coordinates whose integers are cell centres.
+  const float x = (p.x + 1.0f) / cell - 0.5f, y = (p.y + 1.0f) / cell - 0.5f;
+  const float fx = std::floor(x), fy = std::floor(y);
+  const float tx = x - fx, ty = y - fy;
+  Taps taps;
+  for (int t = 0; t < 4; ++t) {
+    const int di = t & 1, dj = t >> 1;
+    // The neighbour's centre, possibly past the edge, folded back into the square.
+    const vec2 c = fold(vec2((fx + float(di) + 0.5f) * cell - 1.0f, (fy + float(dj) + 0.5f) * cell - 1.0f));
+    const auto ci = std::uint32_t(std::clamp(int(std::floor((c.x + 1.0f) / cell)), 0, int(n_) - 1));
+    const auto cj = std::uint32_t(std::clamp(int(std::floor((c.y + 1.0f) / cell)), 0, int(n_) - 1));
+    taps.cells[std::size_t(t)] = cj * n_ + ci;
+    taps.weights[std::size_t(t)] = (di ? tx : 1.0f - tx) * (dj ? ty : 1.0f - ty);
+  }
+  return taps;
+}
+
 float DirectionGrid::spacing() const { return std::sqrt(4.0f * pi) / float(n_); }
 
 }  // namespace weft::ssdf

@@ -1,5 +1,5 @@
-// The visibility bake: one Embree scene of every triangle, rtcOccluded1 per probe and
-// direction, probes split over std::threads (Embree's own threads only build the BVH).
+// RayScene (one Embree scene of every triangle) and the visibility bake: rtcOccluded1 per
+// probe and direction, probes split over std::threads (Embree's own threads only build the BVH).
 module;
 #include <algorithm>
 #include <atomic>
@@ -9,6 +9,8 @@ module;
 #include <cstdint>
 #include <expected>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 #include <embree3/rtcore.h>
@@ -20,19 +22,6 @@ import weft.scene;
 
 namespace weft::ssdf {
 namespace {
-// Owns an Embree device and scene; releases both.
-struct EmbreeScene {
-  RTCDevice device = nullptr;
-  RTCScene scene = nullptr;
-  EmbreeScene() = default;
-  EmbreeScene(const EmbreeScene&) = delete;
-  EmbreeScene& operator=(const EmbreeScene&) = delete;
-  ~EmbreeScene() {
-    if (scene) rtcReleaseScene(scene);
-    if (device) rtcReleaseDevice(device);
-  }
-};
-
 Result<void> check_mesh(const BakeMesh& mesh) {
   if (mesh.indices.size() % 3 != 0)
     return fail(ErrorKind::InvalidArgument, "SSDF bake: {} indices is not a multiple of 3", mesh.indices.size());
@@ -46,7 +35,40 @@ Result<void> check_mesh(const BakeMesh& mesh) {
   return {};
 }
 
-Result<void> build(EmbreeScene& embree, const BakeMesh& mesh) {
+RTCRay make_ray(const vec3& origin, const vec3& direction) {
+  RTCRay ray{};
+  ray.org_x = origin.x, ray.org_y = origin.y, ray.org_z = origin.z;
+  ray.dir_x = direction.x, ray.dir_y = direction.y, ray.dir_z = direction.z;
+  ray.tnear = 0.0f;
+  ray.tfar = std::numeric_limits<float>::infinity();
+  ray.mask = 0xffffffffu;
+  return ray;
+}
+}  // namespace
+
+// Owns an Embree device and scene; releases both.
+struct RayScene::State {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  float diagonal = 1.0f;
+  State() = default;
+  State(const State&) = delete;
+  State& operator=(const State&) = delete;
+  ~State() {
+    if (scene) rtcReleaseScene(scene);
+    if (device) rtcReleaseDevice(device);
+  }
+};
+
+RayScene::RayScene(RayScene&&) noexcept = default;
+RayScene& RayScene::operator=(RayScene&&) noexcept = default;
+RayScene::~RayScene() = default;
+
+Result<RayScene> RayScene::build(const BakeMesh& mesh) {
+  if (auto ok = check_mesh(mesh); !ok) return std::unexpected(ok.error());
+  RayScene result;
+  result.state_ = std::make_unique<State>();
+  State& embree = *result.state_;
   embree.device = rtcNewDevice(nullptr);
   if (!embree.device) return fail(ErrorKind::Device, "Embree: rtcNewDevice failed (error {})", int(rtcGetDeviceError(nullptr)));
   embree.scene = rtcNewScene(embree.device);
@@ -71,9 +93,32 @@ Result<void> build(EmbreeScene& embree, const BakeMesh& mesh) {
   rtcCommitScene(embree.scene);
   if (const RTCError error = rtcGetDeviceError(embree.device); error != RTC_ERROR_NONE)
     return fail(ErrorKind::Device, "Embree: building the scene failed (error {})", int(error));
-  return {};
+  const scene::Bounds bounds = scene::compute_bounds(mesh.positions);
+  embree.diagonal = bounds.empty() ? 1.0f : std::max(glm::length(bounds.size()), 1e-6f);
+  return result;
 }
-}  // namespace
+
+bool RayScene::occluded(const vec3& origin, const vec3& direction) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRay ray = make_ray(origin, direction);
+  rtcOccluded1(state_->scene, &context, &ray);
+  return ray.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
+}
+
+std::optional<RayScene::Hit> RayScene::intersect(const vec3& origin, const vec3& direction) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit hit{};
+  hit.ray = make_ray(origin, direction);
+  hit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  hit.hit.primID = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(state_->scene, &context, &hit);
+  if (hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+  return Hit{hit.hit.primID, hit.ray.tfar, hit.hit.u, hit.hit.v};
+}
+
+float RayScene::diagonal() const { return state_->diagonal; }
 
 std::vector<Probe> vertex_probes(const BakeMesh& mesh) {
   std::vector<Probe> probes(mesh.positions.size());
@@ -84,17 +129,14 @@ std::vector<Probe> vertex_probes(const BakeMesh& mesh) {
 
 Result<Visibility> bake_visibility(const BakeMesh& occluders, std::span<const Probe> probes, const DirectionGrid& grid,
                                    const VisibilityOptions& options) {
-  if (auto ok = check_mesh(occluders); !ok) return std::unexpected(ok.error());
   for (std::size_t p = 0; p < probes.size(); ++p) {
     const vec3 a = probes[p].position, n = probes[p].normal;
     if (!std::isfinite(a.x + a.y + a.z + n.x + n.y + n.z))
       return fail(ErrorKind::InvalidArgument, "SSDF bake: probe {} has a non-finite position or normal", p);
   }
-  EmbreeScene embree;
-  if (auto ok = build(embree, occluders); !ok) return std::unexpected(ok.error());
-  const scene::Bounds bounds = scene::compute_bounds(occluders.positions);
-  const float diagonal = bounds.empty() ? 1.0f : std::max(glm::length(bounds.size()), 1e-6f);
-  const float offset = options.offset * diagonal;
+  auto rays = RayScene::build(occluders);
+  if (!rays) return std::unexpected(rays.error());
+  const float offset = options.offset * rays->diagonal();
 
   Visibility result;
   result.probe_count = probes.size();
@@ -104,22 +146,13 @@ Result<Visibility> bake_visibility(const BakeMesh& occluders, std::span<const Pr
   const auto start = std::chrono::steady_clock::now();
   const std::size_t report_every = std::max<std::size_t>(1, probes.size() / 10);
   cluster::parallel_for(probes.size(), options.threads, [&](std::size_t begin, std::size_t end) {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
     for (std::size_t p = begin; p < end; ++p) {
       const vec3 n = glm::length(probes[p].normal) > 0.0f ? glm::normalize(probes[p].normal) : vec3(0.0f);
       const vec3 origin = probes[p].position + offset * n;
       std::uint8_t* row = result.visible.data() + p * grid.size();
       for (std::size_t d = 0; d < grid.size(); ++d) {
         const vec3 dir = grid.direction(d);
-        RTCRay ray{};
-        ray.org_x = origin.x, ray.org_y = origin.y, ray.org_z = origin.z;
-        ray.dir_x = dir.x, ray.dir_y = dir.y, ray.dir_z = dir.z;
-        ray.tnear = 0.0f;
-        ray.tfar = std::numeric_limits<float>::infinity();
-        ray.mask = 0xffffffffu;
-        rtcOccluded1(embree.scene, &context, &ray);
-        row[d] = ray.tfar < 0.0f ? 0 : 1;  // Embree sets tfar = -inf on a hit
+        row[d] = (options.below_horizon_visible && glm::dot(dir, n) < 0.0f) || !rays->occluded(origin, dir) ? 1 : 0;
       }
       const std::size_t finished = ++done;
       if (options.progress && probes.size() >= 1000 && finished % report_every == 0)

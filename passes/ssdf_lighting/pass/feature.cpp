@@ -1,0 +1,166 @@
+// The "ssdf" FeaturePass: parses the materials, bakes (or loads from the cache) one SSDF per
+// set of bake knobs for the objects using them, with every scene object as an occluder, fits
+// the environment's spherical Gaussians, uploads both once, and draws each frame.
+module;
+#include <chrono>
+#include <cstdint>
+#include <expected>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <tuple>
+#include <utility>
+#include <vector>
+#include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
+module weft.pass.ssdf_lighting;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+import weft.scene;
+import weft.feature;
+import weft.ssdf;
+
+namespace weft::passes {
+
+namespace {
+
+// The environment's content: what changes its lobes.
+std::uint64_t environment_key(const scene::Environment& env, std::uint32_t lobes) {
+  Hasher h;
+  h.value(lobes).value(env.intensity).value(env.rotation_degrees).value(env.constant_color);
+  if (env.map) {
+    h.value(env.map->width).value(env.map->height).value(env.map->channels);
+    h.bytes(env.map->pixels.data(), env.map->pixels.size() * sizeof(float));
+  }
+  return h.digest();
+}
+
+class SsdfFeature final : public FeaturePass {
+ public:
+  SsdfFeature(gpu::Device& device, SSDFLightingPass pass) : device_(&device), pass_(std::move(pass)) {}
+
+  [[nodiscard]] std::string_view name() const override { return "ssdf"; }
+
+  Result<void> prepare(const FeatureFrame& frame) override {
+    draws_.clear();
+    warnings_.clear();
+    // Materials, and the objects grouped by bake knobs (one bake per group).
+    std::vector<std::string> problems;
+    std::vector<std::pair<std::uint32_t, ssdf::SsdfMaterial>> objects;
+    for (std::uint32_t index : frame.objects) {
+      const scene::Object& object = frame.scene.objects.at(index);
+      auto material = material_for(frame.scene.materials.at(object.material), frame.quality);
+      if (!material) {
+        problems.push_back(material.error().message);
+        continue;
+      }
+      objects.emplace_back(index, *material);
+    }
+    if (!problems.empty()) {
+      std::string message = problems.front();
+      for (std::size_t i = 1; i < problems.size(); ++i)
+        if (message.find(problems[i]) == std::string::npos) message += "\n" + problems[i];
+      return std::unexpected(Error{ErrorKind::Parse, std::move(message)});
+    }
+    std::map<std::uint64_t, std::vector<std::uint32_t>> groups;  // by knobs
+    std::map<std::uint64_t, ssdf::BakeOptions> group_options;
+    for (const auto& [index, material] : objects) {
+      const std::uint64_t knobs = ssdf::bake_key(scene::Scene{}, {}, material.bake);
+      groups[knobs].push_back(index);
+      group_options[knobs] = material.bake;
+    }
+    // Bakes: memory, then disk, then bake.
+    std::map<std::uint32_t, std::pair<const SsdfGpuAsset*, std::uint32_t>> placement;  // object -> asset, base
+    for (const auto& [knobs, members] : groups) {
+      const ssdf::BakeOptions& options = group_options.at(knobs);
+      const std::uint64_t key = ssdf::bake_key(frame.scene, members, options);
+      auto it = assets_.find(key);
+      if (it == assets_.end()) {
+        const auto start = std::chrono::steady_clock::now();
+        auto baked = ssdf::cached_bake(frame.scene, members, options);
+        if (!baked) return with_context("ssdf bake", baked.error());
+        log::info(weft::format("ssdf: {} ({} vertices, {}x{} directions, {} clusters) in {:.1f} s{}",
+                               baked->from_disk ? "loaded the cached SSDF" : "baked the SSDF",
+                               baked->asset.cpca.row_count, options.resolution, options.resolution,
+                               baked->asset.cpca.clusters.size(),
+                               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                               baked->file.empty() ? std::string() : " (" + baked->file.string() + ")"));
+        auto uploaded = upload_ssdf(*device_, baked->asset, "ssdf." + hex64(key));
+        if (!uploaded) return std::unexpected(uploaded.error());
+        it = assets_.emplace(key, std::make_unique<SsdfGpuAsset>(std::move(*uploaded))).first;
+      }
+      std::uint32_t base = 0;
+      for (std::uint32_t index : members) {
+        placement[index] = {it->second.get(), base};
+        base += std::uint32_t(frame.scene.meshes.at(frame.scene.objects.at(index).mesh).positions.size());
+      }
+    }
+    // Lobes per (environment, lobe count, resolution), and the draws.
+    for (const auto& [index, material] : objects) {
+      const scene::Object& object = frame.scene.objects.at(index);
+      auto lobes = lobes_for(frame.scene.environment, material.lobes, material.bake.resolution);
+      if (!lobes) return with_context(weft::format("ssdf object '{}': environment fit", object.name), lobes.error());
+      const auto [asset, base] = placement.at(index);
+      draws_.push_back({frame.meshes[object.mesh], object.transform, asset, *lobes, base, material.albedo,
+                        material.shading});
+    }
+    if (!frame.scene.environment.map && frame.scene.environment.constant_color == vec3(0.0f))
+      warnings_.push_back("ssdf materials under a black environment show only the key light");
+    return {};
+  }
+
+  Result<void> add_passes(RenderGraph& graph, const FeatureFrame&) override { return pass_.add(graph, draws_); }
+
+  [[nodiscard]] std::vector<std::string> warnings() const override { return warnings_; }
+
+ private:
+  Result<ssdf::SsdfMaterial> material_for(const scene::Material& material, Quality quality) {
+    Hasher h;
+    h.str(material.name).str(material.params.dump()).str(material.json_path).value(std::uint8_t(quality));
+    const std::uint64_t key = h.digest();
+    if (auto it = materials_.find(key); it != materials_.end()) return it->second;
+    auto parsed = ssdf::parse_ssdf_material(material, quality);
+    if (!parsed) return std::unexpected(parsed.error());
+    materials_.emplace(key, *parsed);
+    return *parsed;
+  }
+
+  Result<const SsdfGpuLobes*> lobes_for(const scene::Environment& env, std::uint32_t count, std::uint32_t resolution) {
+    const std::uint64_t fit_key = environment_key(env, count);
+    const auto key = std::pair{fit_key, resolution};
+    if (auto it = lobes_.find(key); it != lobes_.end()) return it->second.get();
+    auto fit = fits_.find(fit_key);
+    if (fit == fits_.end()) {
+      auto lobes = ssdf::fit_environment(env, {.lobes = count});
+      if (!lobes) return std::unexpected(lobes.error());
+      fit = fits_.emplace(fit_key, std::move(*lobes)).first;
+    }
+    auto uploaded = upload_lobes(*device_, fit->second, resolution, weft::format("ssdf.lobes{}x{}", count, resolution));
+    if (!uploaded) return std::unexpected(uploaded.error());
+    return lobes_.emplace(key, std::make_unique<SsdfGpuLobes>(std::move(*uploaded))).first->second.get();
+  }
+
+  gpu::Device* device_;
+  SSDFLightingPass pass_;
+  std::map<std::uint64_t, ssdf::SsdfMaterial> materials_;                     // by params + quality
+  std::map<std::uint64_t, std::unique_ptr<SsdfGpuAsset>> assets_;             // by bake key
+  std::map<std::uint64_t, std::vector<ssdf::SphericalGaussian>> fits_;        // by environment + count
+  std::map<std::pair<std::uint64_t, std::uint32_t>, std::unique_ptr<SsdfGpuLobes>> lobes_;  // + resolution
+  // This frame's draws, alive until the graph has executed.
+  std::vector<SsdfDraw> draws_;
+  std::vector<std::string> warnings_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<FeaturePass>> create_ssdf_feature(gpu::Device& device) {
+  auto pass = SSDFLightingPass::create(device);
+  if (!pass) return std::unexpected(pass.error());
+  return std::make_unique<SsdfFeature>(device, std::move(*pass));
+}
+
+}  // namespace weft::passes
