@@ -219,7 +219,7 @@ struct Clustering {
   std::vector<std::uint32_t> medoids;   // per cluster: the member texel nearest (L2, raw rgb) to the median
   std::vector<std::uint32_t> sizes;     // per cluster: its texels (every cluster has at least one)
   std::uint32_t pca_components = 0;     // components used (at most the rank)
-  double pca_energy = 0.0;              // fraction of the sampled inputs' energy they hold
+  double pca_energy = 0.0;              // fraction of all texels' centred input energy they hold
   std::size_t iterations = 0;
   [[nodiscard]] std::uint32_t count() const { return static_cast<std::uint32_t>(medoids.size()); }
 };

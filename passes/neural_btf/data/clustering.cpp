@@ -65,19 +65,31 @@ Result<Clustering> cluster_abrdfs(const Btf& btf, const ClusterOptions& o) {
 
   // Coefficients of every texel; with rank 0 (every ABRDF the same) one zero column, so
   // k-means still sees the points (all duplicates).
+  // Also the energy of every texel's centred row and of its projection: the fraction of
+  // all texels' energy the sampled basis holds (an honest figure for the sampling).
   cluster::Matrix coefficients(texels, std::max<std::size_t>(m, 1));
+  std::vector<double> energy(texels, 0.0), kept(texels, 0.0);
   cluster::parallel_for(texels, o.threads, [&](std::size_t begin, std::size_t end) {
     std::vector<float> row(n);
     for (std::size_t t = begin; t < end; ++t) {
       preprocess_input(constants, btf.abrdf(t), row);
+      double e = 0.0;
+      for (std::size_t d = 0; d < n; ++d) {
+        row[d] -= pca->mean[d];
+        e += double(row[d]) * row[d];
+      }
+      energy[t] = e;
       for (std::size_t k = 0; k < m; ++k) {
         const auto basis = pca->basis.row(k);
         double dot = 0.0;
-        for (std::size_t d = 0; d < n; ++d) dot += double(row[d] - pca->mean[d]) * double(basis[d]);
+        for (std::size_t d = 0; d < n; ++d) dot += double(row[d]) * double(basis[d]);
         coefficients.at(t, k) = static_cast<float>(dot);
+        kept[t] += dot * dot;
       }
     }
   });
+  double total_energy = 0.0, kept_energy = 0.0;
+  for (std::size_t t = 0; t < texels; ++t) total_energy += energy[t], kept_energy += kept[t];
 
   cluster::KMeansOptions km;
   km.k = o.clusters;
@@ -108,7 +120,7 @@ Result<Clustering> cluster_abrdfs(const Btf& btf, const ClusterOptions& o) {
     members[out.ids[t]].push_back(static_cast<std::uint32_t>(t));
   }
   out.pca_components = static_cast<std::uint32_t>(m);
-  out.pca_energy = pca->energy_fraction(m);
+  out.pca_energy = total_energy > 0.0 ? std::min(1.0, kept_energy / total_energy) : 1.0;
   out.iterations = means->iterations;
 
   // Element-wise median (the mean of the two middle values for an even count), then the
