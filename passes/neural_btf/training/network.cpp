@@ -1,0 +1,428 @@
+// The encoder and decoder, forward and backward by hand on Eigen matrices. Convolutions are
+// im2col + one matrix product; batch norm normalises over the batch and the pixels of each
+// channel (the standard convolutional batch norm), so its backward pass couples the batch.
+module;
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <expected>
+#include <limits>
+#include <memory>
+#include <random>
+#include <span>
+#include <vector>
+#include <Eigen/Dense>
+module weft.btf.training;
+import weft.core;
+import weft.btf;
+import weft.btf.model;
+
+namespace weft::btf {
+namespace {
+
+using RowMatrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using ColMatrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor>;
+using RowMap = Eigen::Map<RowMatrix>;
+using ConstRowMap = Eigen::Map<const RowMatrix>;
+using ColMap = Eigen::Map<ColMatrix>;
+using ConstColMap = Eigen::Map<const ColMatrix>;
+using VectorMap = Eigen::Map<Eigen::VectorXf>;
+using ConstVectorMap = Eigen::Map<const Eigen::VectorXf>;
+
+constexpr float kBatchNormEpsilon = 1e-5f;
+constexpr float kBatchNormMomentum = 0.1f;
+
+std::uint32_t pooled(std::uint32_t n) { return (n + 2) / 3; }  // max-pool 3 stride 3, partial windows kept
+
+// im2col for a 3x3 kernel, stride 1, zero padding 1: row (ci*9 + ky*3 + kx), column y*W + x.
+void im2col(const float* x, std::uint32_t channels, std::uint32_t rows, std::uint32_t cols, RowMatrix& out) {
+  out.resize(Eigen::Index(channels) * 9, Eigen::Index(rows) * cols);
+  for (std::uint32_t c = 0; c < channels; ++c)
+    for (int ky = 0; ky < 3; ++ky)
+      for (int kx = 0; kx < 3; ++kx) {
+        float* dst = out.row(Eigen::Index(c * 9 + ky * 3 + kx)).data();
+        for (std::uint32_t y = 0; y < rows; ++y) {
+          const int sy = int(y) + ky - 1;
+          for (std::uint32_t xx = 0; xx < cols; ++xx) {
+            const int sx = int(xx) + kx - 1;
+            dst[y * cols + xx] = (sy < 0 || sy >= int(rows) || sx < 0 || sx >= int(cols))
+                                     ? 0.0f
+                                     : x[(std::size_t(c) * rows + std::size_t(sy)) * cols + std::size_t(sx)];
+          }
+        }
+      }
+}
+
+// The adjoint of im2col: scatters column gradients back onto the image.
+void col2im(const RowMatrix& dcols, std::uint32_t channels, std::uint32_t rows, std::uint32_t cols, float* dx) {
+  std::fill_n(dx, std::size_t(channels) * rows * cols, 0.0f);
+  for (std::uint32_t c = 0; c < channels; ++c)
+    for (int ky = 0; ky < 3; ++ky)
+      for (int kx = 0; kx < 3; ++kx) {
+        const float* src = dcols.row(Eigen::Index(c * 9 + ky * 3 + kx)).data();
+        for (std::uint32_t y = 0; y < rows; ++y) {
+          const int sy = int(y) + ky - 1;
+          if (sy < 0 || sy >= int(rows)) continue;
+          for (std::uint32_t xx = 0; xx < cols; ++xx) {
+            const int sx = int(xx) + kx - 1;
+            if (sx < 0 || sx >= int(cols)) continue;
+            dx[(std::size_t(c) * rows + std::size_t(sy)) * cols + std::size_t(sx)] += src[y * cols + xx];
+          }
+        }
+      }
+}
+
+}  // namespace
+
+// What backward needs from one training-mode forward pass, per stage and per batch item.
+struct EncoderCache {
+  std::size_t batch = 0;
+  struct Stage {
+    std::vector<RowMatrix> cols;                      // im2col of the stage input, per item
+    std::vector<std::vector<std::uint32_t>> argmax;   // per item: pooled index -> conv pixel
+    std::vector<RowMatrix> xhat;                      // per item: normalised pooled (C x P)
+    std::vector<float> inv_std;                       // per channel
+  };
+  std::array<Stage, 3> stages;
+  std::vector<Eigen::VectorXf> flat;  // per item: the fully connected layer's input
+};
+
+void EncoderCacheDeleter::operator()(EncoderCache* cache) const { delete cache; }
+EncoderCachePtr make_encoder_cache() { return EncoderCachePtr(new EncoderCache()); }
+
+Result<Network> make_network(const NetworkShape& shape, std::uint64_t seed) {
+  if (shape.lights == 0 || shape.views == 0)
+    return fail(ErrorKind::InvalidArgument, "network for {} lights x {} views (both must be at least 1)", shape.lights,
+                shape.views);
+  for (std::size_t i = 0; i < 3; ++i)
+    if (shape.channels[i] == 0) return fail(ErrorKind::InvalidArgument, "encoder stage {} has 0 channels", i + 1);
+  if (shape.latent == 0) return fail(ErrorKind::InvalidArgument, "latent size 0");
+  for (std::size_t i = 0; i < shape.hidden.size(); ++i)
+    if (shape.hidden[i] == 0) return fail(ErrorKind::InvalidArgument, "decoder hidden layer {} has 0 units", i + 1);
+
+  Network n;
+  n.shape = shape;
+  std::size_t offset = 0;
+  auto take = [&offset](std::size_t count) {
+    const std::size_t at = offset;
+    offset += count;
+    return at;
+  };
+  std::uint32_t in = 3, rows = shape.lights, cols = shape.views;
+  for (std::size_t s = 0; s < 3; ++s) {
+    auto& c = n.conv[s];
+    c.in = in;
+    c.out = shape.channels[s];
+    c.rows = rows;
+    c.cols = cols;
+    c.pooled_rows = pooled(rows);
+    c.pooled_cols = pooled(cols);
+    c.weights = take(std::size_t(c.out) * c.in * 9);
+    c.bias = take(c.out);
+    c.gamma = take(c.out);
+    c.beta = take(c.out);
+    in = c.out;
+    rows = c.pooled_rows;
+    cols = c.pooled_cols;
+  }
+  n.fc_inputs = std::size_t(in) * rows * cols;
+  n.fc_weights = take(std::size_t(shape.latent) * n.fc_inputs);
+  n.fc_bias = take(shape.latent);
+  n.decoder_begin = offset;
+  std::uint32_t width = shape.latent + 4;
+  std::vector<std::uint32_t> outs = shape.hidden;
+  outs.push_back(3);
+  for (std::uint32_t out : outs) {
+    Network::Dense d{};
+    d.in = width;
+    d.out = out;
+    d.weights = take(std::size_t(out) * width);
+    d.bias = take(out);
+    n.dense.push_back(d);
+    width = out;
+  }
+  n.parameters.assign(offset, 0.0f);
+
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  auto he = [&](std::size_t at, std::size_t count, std::size_t fan_in) {
+    const float limit = std::sqrt(6.0f / float(fan_in));  // He-uniform: unit-variance activations
+    for (std::size_t i = 0; i < count; ++i) n.parameters[at + i] = unit(rng) * limit;
+  };
+  for (const auto& c : n.conv) {
+    he(c.weights, std::size_t(c.out) * c.in * 9, std::size_t(c.in) * 9);
+    std::fill_n(n.parameters.begin() + std::ptrdiff_t(c.gamma), c.out, 1.0f);
+  }
+  // The latent layer is linear: Glorot-like scale keeps latents O(1) at the start.
+  he(n.fc_weights, std::size_t(shape.latent) * n.fc_inputs, n.fc_inputs * 2);
+  for (const auto& d : n.dense) he(d.weights, std::size_t(d.out) * d.in, d.in);
+  std::size_t bn_channels = 0;
+  for (const auto& c : n.conv) bn_channels += c.out;
+  n.running_mean.assign(bn_channels, 0.0f);
+  n.running_var.assign(bn_channels, 1.0f);
+  return n;
+}
+
+Decoder decoder_of(const Network& network) {
+  Decoder decoder;
+  for (const auto& d : network.dense) {
+    DenseLayer layer{d.in, d.out, {}, {}};
+    const auto w = network.parameters.begin() + std::ptrdiff_t(d.weights);
+    layer.weights.assign(w, w + std::ptrdiff_t(std::size_t(d.in) * d.out));
+    const auto b = network.parameters.begin() + std::ptrdiff_t(d.bias);
+    layer.bias.assign(b, b + d.out);
+    decoder.layers.push_back(std::move(layer));
+  }
+  return decoder;
+}
+
+namespace {
+// The encoder's stages over a batch. With `stop` < 3, returns after stage `stop`'s conv and
+// max-pool with its pre-batch-norm output in `pre_norm` (for batch_norm_population);
+// otherwise runs through the fully connected layer into `latents`.
+void run_encoder(Network& network, std::span<const float* const> inputs, bool training, EncoderCache& cache,
+                 std::span<float> latents, std::size_t stop, std::vector<RowMatrix>* pre_norm) {
+  const std::size_t batch = inputs.size();
+  const auto& shape = network.shape;
+  const float* p = network.parameters.data();
+  cache.batch = batch;
+  // Stage input per item, CHW.
+  std::vector<std::vector<float>> x(batch);
+  const std::size_t pixels = std::size_t(shape.lights) * shape.views;
+  for (std::size_t b = 0; b < batch; ++b) {
+    x[b].resize(3 * pixels);
+    for (std::size_t i = 0; i < pixels; ++i)
+      for (std::size_t c = 0; c < 3; ++c) x[b][c * pixels + i] = inputs[b][i * 3 + c];
+  }
+  std::size_t bn_offset = 0;
+  for (std::size_t s = 0; s < 3; ++s) {
+    const auto& conv = network.conv[s];
+    auto& st = cache.stages[s];
+    st.cols.resize(batch);
+    st.argmax.resize(batch);
+    st.xhat.resize(batch);
+    const std::size_t out_pixels = std::size_t(conv.pooled_rows) * conv.pooled_cols;
+    const ConstRowMap weights(p + conv.weights, conv.out, Eigen::Index(conv.in) * 9);
+    const ConstVectorMap bias(p + conv.bias, conv.out);
+    std::vector<RowMatrix> pooled_out(batch);
+    for (std::size_t b = 0; b < batch; ++b) {
+      im2col(x[b].data(), conv.in, conv.rows, conv.cols, st.cols[b]);
+      RowMatrix z = weights * st.cols[b];
+      z.colwise() += bias;
+      RowMatrix& out = pooled_out[b];
+      out.resize(conv.out, Eigen::Index(out_pixels));
+      st.argmax[b].resize(std::size_t(conv.out) * out_pixels);
+      for (std::uint32_t c = 0; c < conv.out; ++c)
+        for (std::uint32_t py = 0; py < conv.pooled_rows; ++py)
+          for (std::uint32_t px = 0; px < conv.pooled_cols; ++px) {
+            float best = -std::numeric_limits<float>::infinity();
+            std::uint32_t at = 0;
+            for (std::uint32_t y = py * 3; y < std::min(py * 3 + 3, conv.rows); ++y)
+              for (std::uint32_t xx = px * 3; xx < std::min(px * 3 + 3, conv.cols); ++xx) {
+                const float v = z(c, Eigen::Index(y * conv.cols + xx));
+                if (v > best || (at == 0 && y == py * 3 && xx == px * 3)) best = v, at = y * conv.cols + xx;
+              }
+            out(c, Eigen::Index(py * conv.pooled_cols + px)) = best;
+            st.argmax[b][std::size_t(c) * out_pixels + py * conv.pooled_cols + px] = at;
+          }
+    }
+    if (s == stop) {
+      *pre_norm = std::move(pooled_out);
+      return;
+    }
+    // Batch norm per channel over (batch, pixels).
+    st.inv_std.assign(conv.out, 0.0f);
+    const double count = double(batch * out_pixels);
+    for (std::size_t b = 0; b < batch; ++b) st.xhat[b].resize(conv.out, Eigen::Index(out_pixels));
+    for (std::uint32_t c = 0; c < conv.out; ++c) {
+      float mean = network.running_mean[bn_offset + c], var = network.running_var[bn_offset + c];
+      if (training) {
+        double sum = 0.0, sq = 0.0;
+        for (std::size_t b = 0; b < batch; ++b) sum += double(pooled_out[b].row(c).sum());
+        const double m = sum / count;
+        for (std::size_t b = 0; b < batch; ++b) sq += double((pooled_out[b].row(c).array() - float(m)).square().sum());
+        mean = float(m);
+        var = float(sq / count);
+        network.running_mean[bn_offset + c] =
+            (1.0f - kBatchNormMomentum) * network.running_mean[bn_offset + c] + kBatchNormMomentum * mean;
+        network.running_var[bn_offset + c] =
+            (1.0f - kBatchNormMomentum) * network.running_var[bn_offset + c] + kBatchNormMomentum * var;
+      }
+      st.inv_std[c] = 1.0f / std::sqrt(var + kBatchNormEpsilon);
+      const float gamma = p[conv.gamma + c], beta = p[conv.beta + c];
+      for (std::size_t b = 0; b < batch; ++b) {
+        st.xhat[b].row(c) = (pooled_out[b].row(c).array() - mean) * st.inv_std[c];
+        pooled_out[b].row(c) = st.xhat[b].row(c).array() * gamma + beta;
+      }
+    }
+    bn_offset += conv.out;
+    for (std::size_t b = 0; b < batch; ++b)
+      x[b].assign(pooled_out[b].data(), pooled_out[b].data() + pooled_out[b].size());  // row-major = CHW
+  }
+  const ConstRowMap fc(p + network.fc_weights, shape.latent, Eigen::Index(network.fc_inputs));
+  const ConstVectorMap fc_bias(p + network.fc_bias, shape.latent);
+  cache.flat.resize(batch);
+  for (std::size_t b = 0; b < batch; ++b) {
+    cache.flat[b] = ConstVectorMap(x[b].data(), Eigen::Index(network.fc_inputs));
+    VectorMap(latents.data() + b * shape.latent, shape.latent) = fc * cache.flat[b] + fc_bias;
+  }
+}
+
+void encode_stages(Network& network, std::span<const float* const> inputs, std::size_t stage, EncoderCache& cache,
+                   std::vector<RowMatrix>& pre_norm) {
+  run_encoder(network, inputs, false, cache, {}, stage, &pre_norm);
+}
+}  // namespace
+
+void encode_batch(Network& network, std::span<const float* const> inputs, bool training, EncoderCache& cache,
+                  std::span<float> latents) {
+  run_encoder(network, inputs, training, cache, latents, 3, nullptr);
+}
+
+void batch_norm_population(Network& network, std::span<const float* const> inputs, std::size_t chunk) {
+  if (inputs.empty()) return;
+  chunk = std::max<std::size_t>(1, chunk);
+  std::size_t bn_offset = 0;
+  auto cache = make_encoder_cache();
+  for (std::size_t s = 0; s < 3; ++s) {
+    const auto& conv = network.conv[s];
+    std::vector<double> sum(conv.out, 0.0), sq(conv.out, 0.0);
+    // Two passes over the data per stage: the mean first, then the variance about it (a
+    // one-pass E[x²] − E[x]² loses the variance of large, nearly constant activations).
+    for (int pass = 0; pass < 2; ++pass) {
+      for (std::size_t i = 0; i < inputs.size(); i += chunk) {
+        const std::size_t n = std::min(chunk, inputs.size() - i);
+        std::vector<RowMatrix> pooled_out;
+        encode_stages(network, inputs.subspan(i, n), s, *cache, pooled_out);
+        for (const auto& m : pooled_out)
+          for (std::uint32_t c = 0; c < conv.out; ++c) {
+            if (pass == 0) sum[c] += double(m.row(c).sum());
+            else sq[c] += double((m.row(c).array() - float(sum[c])).square().sum());
+          }
+      }
+      const double count = double(inputs.size()) * double(conv.pooled_rows) * double(conv.pooled_cols);
+      for (std::uint32_t c = 0; c < conv.out; ++c) {
+        if (pass == 0) sum[c] /= count;
+        else {
+          network.running_mean[bn_offset + c] = float(sum[c]);
+          network.running_var[bn_offset + c] = float(sq[c] / count);
+        }
+      }
+    }
+    bn_offset += conv.out;
+  }
+}
+
+void encoder_backward(const Network& network, const EncoderCache& cache, std::span<const float> latent_gradient,
+                      std::span<float> gradient) {
+  const std::size_t batch = cache.batch;
+  const auto& shape = network.shape;
+  const float* p = network.parameters.data();
+  float* g = gradient.data();
+  const ConstRowMap fc(p + network.fc_weights, shape.latent, Eigen::Index(network.fc_inputs));
+  RowMap dfc(g + network.fc_weights, shape.latent, Eigen::Index(network.fc_inputs));
+  VectorMap dfc_bias(g + network.fc_bias, shape.latent);
+  // dy: gradient w.r.t. each stage's output (after batch norm), per item, C x P row-major.
+  std::vector<RowMatrix> dy(batch);
+  const auto& last = network.conv[2];
+  for (std::size_t b = 0; b < batch; ++b) {
+    const ConstVectorMap dl(latent_gradient.data() + b * shape.latent, shape.latent);
+    dfc.noalias() += dl * cache.flat[b].transpose();
+    dfc_bias += dl;
+    Eigen::VectorXf df = fc.transpose() * dl;
+    dy[b] = Eigen::Map<RowMatrix>(df.data(), last.out, Eigen::Index(last.pooled_rows) * last.pooled_cols);
+  }
+  for (int s = 2; s >= 0; --s) {
+    const auto& conv = network.conv[std::size_t(s)];
+    const auto& st = cache.stages[std::size_t(s)];
+    const std::size_t out_pixels = std::size_t(conv.pooled_rows) * conv.pooled_cols;
+    const double count = double(batch * out_pixels);
+    // Batch norm backward: dx = γ/σ (dy − mean(dy) − x̂ mean(dy x̂)), means over (batch, pixels).
+    for (std::uint32_t c = 0; c < conv.out; ++c) {
+      double sum_dy = 0.0, sum_dy_xhat = 0.0;
+      for (std::size_t b = 0; b < batch; ++b) {
+        sum_dy += double(dy[b].row(c).sum());
+        sum_dy_xhat += double((dy[b].row(c).array() * st.xhat[b].row(c).array()).sum());
+      }
+      g[conv.gamma + c] += float(sum_dy_xhat);
+      g[conv.beta + c] += float(sum_dy);
+      const float k = p[conv.gamma + c] * st.inv_std[c];
+      const float mean_dy = float(sum_dy / count), mean_dy_xhat = float(sum_dy_xhat / count);
+      for (std::size_t b = 0; b < batch; ++b)
+        dy[b].row(c) = k * (dy[b].row(c).array() - mean_dy - st.xhat[b].row(c).array() * mean_dy_xhat);
+    }
+    const ConstRowMap weights(p + conv.weights, conv.out, Eigen::Index(conv.in) * 9);
+    RowMap dweights(g + conv.weights, conv.out, Eigen::Index(conv.in) * 9);
+    VectorMap dbias(g + conv.bias, conv.out);
+    const std::size_t in_pixels = std::size_t(conv.rows) * conv.cols;
+    for (std::size_t b = 0; b < batch; ++b) {
+      // Max-pool backward: each pooled gradient goes to the pixel that won.
+      RowMatrix dz = RowMatrix::Zero(conv.out, Eigen::Index(in_pixels));
+      for (std::uint32_t c = 0; c < conv.out; ++c)
+        for (std::size_t q = 0; q < out_pixels; ++q)
+          dz(c, Eigen::Index(st.argmax[b][c * out_pixels + q])) += dy[b](c, Eigen::Index(q));
+      dweights.noalias() += dz * st.cols[b].transpose();
+      dbias += dz.rowwise().sum();
+      if (s > 0) {
+        const RowMatrix dcols = weights.transpose() * dz;
+        RowMatrix dx(conv.in, Eigen::Index(in_pixels));
+        col2im(dcols, conv.in, conv.rows, conv.cols, dx.data());
+        dy[b] = std::move(dx);
+      }
+    }
+  }
+}
+
+void decoder_forward(const Network& network, std::span<const float> inputs, std::size_t count, std::span<float> outputs) {
+  const float* p = network.parameters.data();
+  ColMatrix a = ConstColMap(inputs.data(), network.dense.front().in, Eigen::Index(count));
+  for (std::size_t l = 0; l < network.dense.size(); ++l) {
+    const auto& d = network.dense[l];
+    ColMatrix z = ConstRowMap(p + d.weights, d.out, d.in) * a;
+    z.colwise() += ConstVectorMap(p + d.bias, d.out);
+    if (l + 1 < network.dense.size()) z = z.cwiseMax(0.0f);
+    a = std::move(z);
+  }
+  ColMap(outputs.data(), 3, Eigen::Index(count)) = a;
+}
+
+double decoder_loss_gradient(const Network& network, std::span<const float> inputs, std::span<const float> targets,
+                             std::span<const float> sample_scales, std::size_t count, float weight,
+                             std::span<float> gradient, std::span<float> input_gradient) {
+  const float* p = network.parameters.data();
+  float* g = gradient.data();
+  const std::size_t layers = network.dense.size();
+  std::vector<ColMatrix> act(layers + 1);  // act[0] = inputs, act[l+1] = layer l's output (post-ReLU)
+  act[0] = ConstColMap(inputs.data(), network.dense.front().in, Eigen::Index(count));
+  for (std::size_t l = 0; l < layers; ++l) {
+    const auto& d = network.dense[l];
+    act[l + 1].noalias() = ConstRowMap(p + d.weights, d.out, d.in) * act[l];
+    act[l + 1].colwise() += ConstVectorMap(p + d.bias, d.out);
+    if (l + 1 < layers) act[l + 1] = act[l + 1].cwiseMax(0.0f);
+  }
+  const ConstColMap t(targets.data(), 3, Eigen::Index(count));
+  ColMatrix residual = act[layers];
+  if (!sample_scales.empty()) residual = residual * ConstVectorMap(sample_scales.data(), Eigen::Index(count)).asDiagonal();
+  residual -= t;
+  const double loss = double(residual.squaredNorm());
+  // d/dy of w (s y − t)²: 2 w s (s y − t).
+  ColMatrix dz = (2.0f * weight) * residual;
+  if (!sample_scales.empty()) dz = dz * ConstVectorMap(sample_scales.data(), Eigen::Index(count)).asDiagonal();
+  for (std::size_t l = layers; l-- > 0;) {
+    const auto& d = network.dense[l];
+    RowMap(g + d.weights, d.out, d.in).noalias() += dz * act[l].transpose();
+    VectorMap(g + d.bias, d.out) += dz.rowwise().sum();
+    if (l == 0 && input_gradient.empty()) break;
+    ColMatrix da = ConstRowMap(p + d.weights, d.out, d.in).transpose() * dz;
+    if (l == 0) {
+      ColMap(input_gradient.data(), d.in, Eigen::Index(count)) = da;
+      break;
+    }
+    dz = (act[l].array() > 0.0f).select(da, 0.0f);
+  }
+  return loss;
+}
+
+}  // namespace weft::btf

@@ -1,0 +1,187 @@
+// weft.btf.training — trains a neural BTF on the CPU (Eigen, std::thread): the paper's
+// convolutional encoder (ABRDF image -> 8-D latent) and MLP decoder (latent + two
+// stereographic directions -> RGB) as one autoencoder, then the plain model (one latent per
+// texel) or the clustered one (one latent per cluster's median ABRDF, a cluster id and a
+// luminance scale per texel). Forward and backward passes are written by hand and checked
+// against finite differences in tests/neural_btf/test_btf_training.cpp. docs/neural-btf.md,
+// "Training", says what is the paper's and what is ours.
+module;
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+export module weft.btf.training;
+import weft.core;
+import weft.btf;
+import weft.btf.model;
+
+export namespace weft::btf {
+
+// ---- the network ---------------------------------------------------------------------------
+//
+// Encoder: the preprocessed ABRDF as a 3-channel image (light rows x view columns), then
+// [conv 3x3 stride 1 pad 1 -> max-pool 3 stride 3 (partial windows at the border, so any
+// size works) -> batch norm] x 3 -> fully connected -> latent. No other non-linearity: the
+// paper names none, the max-pools are one. Decoder: (latent, stereo(ω_i), stereo(ω_o)) ->
+// hidden layers with ReLU -> RGB (linear; decode() clamps at 0).
+struct NetworkShape {
+  std::uint32_t lights = 81, views = 81;            // the encoder's image: rows x columns
+  std::array<std::uint32_t, 3> channels{8, 16, 32};  // conv output channels per stage
+  std::uint32_t latent = 8;
+  std::vector<std::uint32_t> hidden{106, 106, 106};  // the paper's decoder (24,383 parameters)
+};
+
+// Every trainable number lives in one flat vector (SGD, gradients, checkpoints and the
+// gradient check treat it as one), with offsets into it; batch norm's running statistics
+// (used when encoding after training) are kept apart because they are not trained.
+struct Network {
+  NetworkShape shape;
+  std::vector<float> parameters;
+  std::vector<float> running_mean, running_var;  // per batch-norm channel, stages concatenated
+
+  // Offsets into `parameters`; filled by make_network.
+  struct Conv { std::size_t weights, bias, gamma, beta; std::uint32_t in, out, rows, cols, pooled_rows, pooled_cols; };
+  std::array<Conv, 3> conv{};
+  std::size_t fc_weights = 0, fc_bias = 0, fc_inputs = 0;
+  struct Dense { std::size_t weights, bias; std::uint32_t in, out; };
+  std::vector<Dense> dense;  // the decoder's layers
+  std::size_t decoder_begin = 0;  // parameters from here on are the decoder's
+
+  [[nodiscard]] std::size_t encoder_parameters() const { return decoder_begin; }
+  [[nodiscard]] std::size_t decoder_parameters() const { return parameters.size() - decoder_begin; }
+};
+
+// He-uniform weights, zero biases, batch norm γ = 1, β = 0, from `seed`. InvalidArgument for
+// a zero size or channel count.
+[[nodiscard]] Result<Network> make_network(const NetworkShape& shape, std::uint64_t seed);
+
+// The decoder as the model stores it (weights copied out of the flat vector).
+[[nodiscard]] Decoder decoder_of(const Network& network);
+
+// Encoder forward pass over a batch. `inputs[b]` is one preprocessed ABRDF (lights * views * 3
+// floats in Btf's layout). Training mode normalises with the batch's statistics (over batch
+// and pixels) and updates the running ones (momentum 0.1); inference mode uses the running
+// ones. The cache holds what backward needs.
+struct EncoderCache;
+struct EncoderCacheDeleter { void operator()(EncoderCache* cache) const; };
+using EncoderCachePtr = std::unique_ptr<EncoderCache, EncoderCacheDeleter>;
+[[nodiscard]] EncoderCachePtr make_encoder_cache();
+void encode_batch(Network& network, std::span<const float* const> inputs, bool training, EncoderCache& cache,
+                  std::span<float> latents);  // batch * latent
+// Sets batch norm's running statistics to the population's: each channel's mean and
+// variance over every input (stage by stage, in chunks of `chunk` inputs). Training ends
+// with this before the latents are encoded, so inference normalises with the statistics of
+// the data rather than a momentum average of the last batches (whose inputs, in a
+// clustered model's batches, repeat and make the batch variance small).
+void batch_norm_population(Network& network, std::span<const float* const> inputs, std::size_t chunk = 64);
+// Adds d(loss)/d(encoder parameters) to `gradient` (parameters.size() floats) from
+// d(loss)/d(latents), using the cache of the last training-mode encode_batch.
+void encoder_backward(const Network& network, const EncoderCache& cache, std::span<const float> latent_gradient,
+                      std::span<float> gradient);
+
+// The decoder over `count` samples. `inputs` is column-major (input_size x count: each
+// sample's latent, stereo(ω_i), stereo(ω_o) contiguous). Returns outputs (3 x count,
+// column-major) in `outputs`.
+void decoder_forward(const Network& network, std::span<const float> inputs, std::size_t count, std::span<float> outputs);
+// Forward + backward for the loss Σ w (s_j · y_j − t_j)² (s_j a per-sample scale, w the
+// common weight, e.g. 1 / (3 × samples)); adds d/d(decoder parameters) to `gradient` and
+// writes d/d(inputs) to `input_gradient` (same layout as inputs) when it is not empty.
+// Returns the unweighted sum of squares.
+double decoder_loss_gradient(const Network& network, std::span<const float> inputs, std::span<const float> targets,
+                             std::span<const float> sample_scales, std::size_t count, float weight,
+                             std::span<float> gradient, std::span<float> input_gradient);
+
+// ---- training -------------------------------------------------------------------------------
+
+struct TrainProgress {
+  std::size_t epoch = 0, epochs = 0;  // epoch in progress (0-based) and the planned total
+  std::size_t step = 0, steps_per_epoch = 0;
+  bool finetuning = false;            // stage 2: decoder + latents, encoder frozen
+  double loss = 0.0;                  // mean squared error of the epoch so far (targets' units)
+  double elapsed_s = 0.0, eta_s = 0.0, fraction = 0.0;
+};
+using ProgressFn = std::function<void(const TrainProgress&)>;
+
+struct TrainOptions {
+  // 0: the plain neural BTF (a latent per texel). k > 0: PCA + k-means++ (weft::btf::cluster_abrdfs)
+  // and a latent per cluster, from the cluster's median ABRDF.
+  std::uint32_t clusters = 0;
+  std::uint32_t pca_components = 16;
+  bool texel_scales = true;           // clustered: the per-texel luminance scale (the paper's fix)
+  NetworkShape network{};             // lights / views are taken from the BTF
+  float learning_rate = 0.0f;         // 0: the paper's, 0.05 plain, 0.08 clustered
+  std::uint32_t batch = 5;            // texels per SGD step (each with its directions)
+  // Light/view pairs per texel in a step, drawn without replacement; 0: all of them (the
+  // paper's loss over the whole ABRDF).
+  std::uint32_t directions_per_texel = 0;
+  std::uint32_t epochs = 10;          // an epoch visits every texel once, in a seeded shuffle
+  // Ours, not the paper's: a step whose gradient (parameters and latents together) is longer
+  // than this is scaled down to it. Batch norm over a batch of near-equal inputs divides by
+  // a tiny deviation, and one such step can throw SGD off; the clip keeps it finite. 0: off.
+  float max_gradient_norm = 1.0f;
+  double max_seconds = 0.0;           // a time budget (0: none); training stops at the next step
+  // The last fraction of the epochs (or of the time budget) trains the decoder and the
+  // stored latents directly, the encoder frozen: the latents become free parameters (the
+  // issue's "fine-tuned cluster latents"). 0: stop after the autoencoder.
+  float finetune_fraction = 0.25f;
+  std::uint64_t seed = 1;
+  std::size_t threads = 0;            // 0: all cores; results do not depend on it
+  std::filesystem::path checkpoint;   // empty: none. Written at epoch ends and when stopping.
+  std::uint32_t checkpoint_every = 1; // epochs
+  bool resume = false;                // continue from `checkpoint` when it exists
+  // Run at most this many steps now, then checkpoint and return the model so far (0: no
+  // limit): splits a long training over sessions; resuming continues exactly.
+  std::size_t stop_after_steps = 0;
+  ProgressFn progress;                // called about every progress_interval_s and at epoch ends
+  double progress_interval_s = 5.0;
+};
+
+struct TrainResult {
+  NeuralBtf model;
+  Network network;
+  Preprocessing preprocessing;        // what the encoder's inputs were standardised with
+  std::size_t epochs_done = 0, steps_done = 0;
+  double final_loss = 0.0;            // the last epoch's mean squared error (targets' units)
+  double seconds = 0.0;               // this run's training time (clustering excluded)
+  double cluster_seconds = 0.0;
+  std::uint32_t clusters = 0;         // clusters actually used (k-means drops empty ones)
+};
+
+// Trains on `btf` (validated first). InvalidArgument for a bad option (named, with its
+// value), an invalid BTF, or a checkpoint that belongs to other data or options.
+[[nodiscard]] Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& options);
+
+// ---- evaluation ------------------------------------------------------------------------------
+
+// RMSE of the model's decode() against the BTF's samples (the model must have its texel
+// grid), over every light/view pair, or only over those with `pairs[l * views + v]` true.
+// Batched (Eigen) and multi-threaded; equal to weft::btf::rmse with decode() up to rounding.
+[[nodiscard]] Result<double> model_rmse(const NeuralBtf& model, const Btf& btf, std::span<const bool> pairs = {},
+                                        std::size_t threads = 0);
+
+// "12 min 5 s", "3.2 s": for progress lines.
+[[nodiscard]] std::string describe_seconds(double seconds);
+
+}  // namespace weft::btf
+
+// Not exported: shared by the implementation files (train.cpp, checkpoint.cpp).
+namespace weft::btf::training_detail {
+// Where a training run stands; what a checkpoint stores besides a fingerprint of the data
+// and the options.
+struct TrainState {
+  std::uint64_t fingerprint = 0;
+  std::size_t epoch = 0, step = 0;   // the next step to run
+  bool finetuning = false;
+  double elapsed_s = 0.0;            // training time of earlier runs
+  double epoch_loss = 0.0, epoch_count = 0.0;
+  double last_epoch_loss = 0.0;
+  std::vector<float> parameters, running_mean, running_var, latents;
+};
+Result<void> save_checkpoint(const std::filesystem::path& file, const TrainState& state);
+Result<TrainState> load_checkpoint(const std::filesystem::path& file);
+}  // namespace weft::btf::training_detail
