@@ -96,7 +96,7 @@ class NeuralBtfFeature final : public FeaturePass {
   }
 
   // The model of a .wbtf file on the GPU, loaded again only when the file changes.
-  Result<const gpu::Buffer*> model_for(const std::filesystem::path& path) {
+  Result<const GpuBtfModel*> model_for(const std::filesystem::path& path) {
     std::error_code ec;
     const auto stamp = std::filesystem::last_write_time(path, ec);
     const auto size = std::filesystem::file_size(path, ec);
@@ -111,12 +111,12 @@ class NeuralBtfFeature final : public FeaturePass {
                            model->decoder.parameter_count()));
     auto buffer = upload_model(*device_, *model, "neural_btf_" + path.filename().string());
     if (!buffer) return with_context(path.string(), buffer.error());
-    return models_.emplace(key, std::make_unique<gpu::Buffer>(std::move(*buffer))).first->second.get();
+    return models_.emplace(key, std::make_unique<GpuBtfModel>(std::move(*buffer))).first->second.get();
   }
 
   gpu::Device* device_;
   NeuralBtfPass pass_;
-  std::map<std::uint64_t, std::unique_ptr<gpu::Buffer>> models_;  // by path, time and size
+  std::map<std::uint64_t, std::unique_ptr<GpuBtfModel>> models_;  // by path, time and size
   std::map<std::uint64_t, std::shared_ptr<NeuralBtfGpuMaterial>> materials_;
   // This frame's inputs, alive until the graph has executed.
   std::vector<NeuralBtfDraw> draws_;

@@ -69,9 +69,22 @@ inline constexpr std::uint32_t kBtfMaxLayers = 8;
 inline constexpr std::uint32_t kBtfMaxWidth = 128;
 
 // The model as the shader reads it (one std430 buffer; see btf_decode.glsl): 32-bit words.
-// InvalidArgument when the model is invalid or exceeds the shader's limits.
+// InvalidArgument when the model is invalid, Unsupported when it exceeds the shader's limits.
 Result<std::vector<std::uint32_t>> pack_model(const btf::NeuralBtf& model);
-Result<gpu::Buffer> upload_model(gpu::Device& device, const btf::NeuralBtf& model, std::string_view label);
+
+// The paper's decoder shape (latent 8; 12 -> 106 -> 106 -> 106 -> 3), which the shaders also
+// have compiled in with every loop unrolled (BTF_PAPER_SHAPE in btf_decode.glsl): on lavapipe
+// that variant is several times faster than the generic one, which loops over the shape.
+[[nodiscard]] bool is_paper_shape(const btf::NeuralBtf& model);
+
+// A model on the GPU and which shader variant decodes it.
+struct GpuBtfModel {
+  gpu::Buffer buffer;
+  bool paper_shape = false;  // use the unrolled variant
+};
+// `allow_unrolled` = false forces the generic variant (the benchmark's comparison).
+Result<GpuBtfModel> upload_model(gpu::Device& device, const btf::NeuralBtf& model, std::string_view label,
+                                 bool allow_unrolled = true);
 
 // One decode query: ω_i and ω_o in the tangent frame (need not be normalised) and a texel.
 struct DecodeQuery {
@@ -88,10 +101,10 @@ class BtfDecodeKernel {
  public:
   static Result<BtfDecodeKernel> create(gpu::Device& device);
   // Uploads the queries, decodes, reads back one RGBA per query (A = 1).
-  Result<std::vector<vec4>> decode(gpu::Device& device, const gpu::Buffer& model, std::span<const DecodeQuery> queries) const;
+  Result<std::vector<vec4>> decode(gpu::Device& device, const GpuBtfModel& model, std::span<const DecodeQuery> queries) const;
   // For timing: decodes `count` queries already in `queries` into `results` (Storage buffers),
   // submits and waits. Returns the wall-clock seconds of submit + wait.
-  Result<double> run(gpu::Device& device, const gpu::Buffer& model, const gpu::Buffer& queries, const gpu::Buffer& results,
+  Result<double> run(gpu::Device& device, const GpuBtfModel& model, const gpu::Buffer& queries, const gpu::Buffer& results,
                      std::uint32_t count) const;
 
  private:
@@ -116,7 +129,7 @@ class NeuralBtfPass {
   static Result<NeuralBtfPass> create(gpu::Device& device);
   // `model` (from upload_model) must outlive the material.
   Result<std::shared_ptr<NeuralBtfGpuMaterial>> create_material(gpu::Device& device, const btf::NeuralBtfMaterial& params,
-                                                                const gpu::Buffer& model) const;
+                                                                const GpuBtfModel& model) const;
   // `draws` and `materials` must outlive the graph's execution; the materials' model buffers
   // are imported and declared as storage reads.
   Result<void> add(RenderGraph& graph, std::span<const NeuralBtfDraw> draws,

@@ -59,44 +59,69 @@ Result<std::vector<std::uint32_t>> pack_model(const btf::NeuralBtf& model) {
   if (model.texels() >= (1u << 24) || model.latent_count() >= (1u << 24))
     return fail(ErrorKind::Unsupported, "neural BTF: {} texels / {} latents; the shader indexes fewer than 2^24",
                 model.texels(), model.latent_count());
+  // Everything after the header is in vec4s: offsets count vec4s, and each block starts on one.
   std::vector<std::uint32_t> words(kHeaderWords, 0);
   auto push_float = [&](float v) { words.push_back(std::bit_cast<std::uint32_t>(v)); };
-  auto offset = [&] { return std::uint32_t(words.size() - kHeaderWords); };
+  auto align4 = [&] {
+    while ((words.size() - kHeaderWords) % 4) push_float(0.0f);
+  };
+  auto offset4 = [&] { return std::uint32_t((words.size() - kHeaderWords) / 4); };
+  auto up4 = [](std::uint32_t n) { return (n + 3) / 4; };
   for (std::size_t i = 0; i < layers.size(); ++i) {
+    const btf::DenseLayer& l = layers[i];
+    const std::uint32_t in4 = up4(l.inputs), out4 = up4(l.outputs);
     const std::size_t at = 12 + 4 * i;
-    words[at + 0] = layers[i].inputs;
-    words[at + 1] = layers[i].outputs;
-    words[at + 2] = offset();
-    for (float w : layers[i].weights) push_float(w);
-    words[at + 3] = offset();
-    for (float b : layers[i].bias) push_float(b);
+    words[at + 0] = in4;
+    words[at + 1] = out4;
+    words[at + 2] = offset4();
+    // Rows padded to in4 vec4s, and padded rows up to out4 * 4: zeros, so padded outputs are 0
+    // and padded inputs contribute nothing.
+    for (std::uint32_t o = 0; o < out4 * 4; ++o)
+      for (std::uint32_t k = 0; k < in4 * 4; ++k)
+        push_float(o < l.outputs && k < l.inputs ? l.weights[std::size_t(o) * l.inputs + k] : 0.0f);
+    words[at + 3] = offset4();
+    for (std::uint32_t o = 0; o < out4 * 4; ++o) push_float(o < l.outputs ? l.bias[o] : 0.0f);
   }
   words[0] = std::uint32_t(layers.size());
   words[1] = model.latent_size;
   words[2] = model.width;
   words[3] = model.height;
-  words[4] = offset();
-  for (float v : model.latents) push_float(v);
+  words[4] = offset4();
+  for (std::size_t c = 0; c < model.latent_count(); ++c) {
+    for (std::uint32_t k = 0; k < model.latent_size; ++k) push_float(model.latents[c * model.latent_size + k]);
+    align4();
+  }
   words[5] = kNone;
   if (model.clustered()) {
-    words[5] = offset();
+    words[5] = offset4();
     for (std::uint32_t id : model.cluster_ids) push_float(float(id));  // exact below 2^24
+    align4();
   }
   words[6] = kNone;
   if (!model.texel_scales.empty()) {
-    words[6] = offset();
+    words[6] = offset4();
     for (float s : model.texel_scales) push_float(s);
+    align4();
   }
   words[8] = std::bit_cast<std::uint32_t>(model.output_scale);
   return words;
 }
 
-Result<gpu::Buffer> upload_model(gpu::Device& device, const btf::NeuralBtf& model, std::string_view label) {
+bool is_paper_shape(const btf::NeuralBtf& model) {
+  const auto& l = model.decoder.layers;
+  return model.latent_size == 8 && l.size() == 4 && l[0].inputs == 12 && l[0].outputs == 106 && l[1].outputs == 106 &&
+         l[2].outputs == 106 && l[3].outputs == 3;
+}
+
+Result<GpuBtfModel> upload_model(gpu::Device& device, const btf::NeuralBtf& model, std::string_view label,
+                                 bool allow_unrolled) {
   auto words = pack_model(model);
   if (!words) return std::unexpected(words.error());
-  return device.create_buffer_with_data({.label = std::string(label), .size = words->size() * 4,
-                                         .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
-                                        std::as_bytes(std::span(*words)));
+  auto buffer = device.create_buffer_with_data({.label = std::string(label), .size = words->size() * 4,
+                                                .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
+                                               std::as_bytes(std::span(*words)));
+  if (!buffer) return std::unexpected(buffer.error());
+  return GpuBtfModel{std::move(*buffer), allow_unrolled && is_paper_shape(model)};
 }
 
 // ---- the decode kernel ----------------------------------------------------------------------
@@ -104,7 +129,8 @@ Result<gpu::Buffer> upload_model(gpu::Device& device, const btf::NeuralBtf& mode
 struct BtfDecodeKernel::State {
   gpu::BindGroupLayout layout;
   gpu::PipelineLayout pipeline_layout;
-  gpu::ComputePipeline pipeline;
+  gpu::ComputePipeline pipeline;        // any shape
+  gpu::ComputePipeline paper_pipeline;  // the paper's shape, unrolled
 };
 
 Result<BtfDecodeKernel> BtfDecodeKernel::create(gpu::Device& device) {
@@ -113,6 +139,9 @@ Result<BtfDecodeKernel> BtfDecodeKernel::create(gpu::Device& device) {
   auto cs = device.create_shader_module(
       {.label = "btf_decode.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_comp()});
   if (!cs) return std::unexpected(cs.error());
+  auto paper_cs = device.create_shader_module(
+      {.label = "btf_decode_paper.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_paper_comp()});
+  if (!paper_cs) return std::unexpected(paper_cs.error());
   auto layout = device.create_bind_group_layout({.label = "btf-decode",
                                                  .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
                                                              {1, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
@@ -123,12 +152,16 @@ Result<BtfDecodeKernel> BtfDecodeKernel::create(gpu::Device& device) {
   if (!pipeline_layout) return std::unexpected(pipeline_layout.error());
   auto pipeline = device.create_compute_pipeline({.label = "btf-decode", .layout = &*pipeline_layout, .module = &*cs});
   if (!pipeline) return std::unexpected(pipeline.error());
+  auto paper_pipeline =
+      device.create_compute_pipeline({.label = "btf-decode-paper", .layout = &*pipeline_layout, .module = &*paper_cs});
+  if (!paper_pipeline) return std::unexpected(paper_pipeline.error());
   BtfDecodeKernel k;
-  k.state_ = std::make_shared<State>(State{std::move(*layout), std::move(*pipeline_layout), std::move(*pipeline)});
+  k.state_ = std::make_shared<State>(
+      State{std::move(*layout), std::move(*pipeline_layout), std::move(*pipeline), std::move(*paper_pipeline)});
   return k;
 }
 
-Result<double> BtfDecodeKernel::run(gpu::Device& device, const gpu::Buffer& model, const gpu::Buffer& queries,
+Result<double> BtfDecodeKernel::run(gpu::Device& device, const GpuBtfModel& model, const gpu::Buffer& queries,
                                     const gpu::Buffer& results, std::uint32_t count) const {
   if (queries.size() < std::uint64_t(count) * sizeof(DecodeQuery) || results.size() < std::uint64_t(count) * sizeof(vec4))
     return fail(ErrorKind::InvalidArgument, "btf decode: {} queries need {} and {} bytes; the buffers have {} and {}", count,
@@ -136,13 +169,13 @@ Result<double> BtfDecodeKernel::run(gpu::Device& device, const gpu::Buffer& mode
                 results.size());
   auto group = device.create_bind_group(
       {.label = "btf-decode", .layout = &state_->layout,
-       .entries = {gpu::bind(0, model), gpu::bind(1, queries), gpu::bind(2, results)}});
+       .entries = {gpu::bind(0, model.buffer), gpu::bind(1, queries), gpu::bind(2, results)}});
   if (!group) return std::unexpected(group.error());
   auto enc = device.create_command_encoder("btf-decode");
   if (!enc) return std::unexpected(enc.error());
   {
     auto pass = enc->begin_compute_pass("btf-decode");
-    pass.set_pipeline(state_->pipeline);
+    pass.set_pipeline(model.paper_shape ? state_->paper_pipeline : state_->pipeline);
     pass.set_bind_group(0, *group);
     pass.push(count);
     pass.dispatch((count + 63) / 64);
@@ -156,7 +189,7 @@ Result<double> BtfDecodeKernel::run(gpu::Device& device, const gpu::Buffer& mode
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-Result<std::vector<vec4>> BtfDecodeKernel::decode(gpu::Device& device, const gpu::Buffer& model,
+Result<std::vector<vec4>> BtfDecodeKernel::decode(gpu::Device& device, const GpuBtfModel& model,
                                                   std::span<const DecodeQuery> queries) const {
   if (queries.empty()) return std::vector<vec4>{};
   auto in = device.create_buffer_with_data(
@@ -179,6 +212,7 @@ Result<std::vector<vec4>> BtfDecodeKernel::decode(gpu::Device& device, const gpu
 struct NeuralBtfGpuMaterial {
   btf::NeuralBtfMaterial params;
   const gpu::Buffer* model = nullptr;
+  bool paper_shape = false;
   gpu::BindGroup group;
 };
 
@@ -186,7 +220,8 @@ struct NeuralBtfPass::State {
   gpu::BindGroupLayout frame_layout;
   gpu::BindGroupLayout material_layout;
   gpu::PipelineLayout layout;
-  gpu::RenderPipeline pipeline;
+  gpu::RenderPipeline pipeline;        // any decoder shape
+  gpu::RenderPipeline paper_pipeline;  // the paper's shape, unrolled
   gpu::Sampler shadow_compare;
 };
 
@@ -199,6 +234,9 @@ Result<NeuralBtfPass> NeuralBtfPass::create(gpu::Device& device) {
   auto fs = device.create_shader_module(
       {.label = "neural_btf.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_frag()});
   if (!fs) return std::unexpected(fs.error());
+  auto paper_fs = device.create_shader_module(
+      {.label = "neural_btf_paper.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_paper_frag()});
+  if (!paper_fs) return std::unexpected(paper_fs.error());
   auto frame_layout = device.create_bind_group_layout(
       {.label = "neural-btf-frame",
        .entries = {{0, BindingType::UniformBuffer, ShaderStage::Vertex | ShaderStage::Fragment},
@@ -211,31 +249,37 @@ Result<NeuralBtfPass> NeuralBtfPass::create(gpu::Device& device) {
                                                .bind_group_layouts = {&*frame_layout, &*material_layout},
                                                .push_constant_size = sizeof(NeuralBtfConstants)});
   if (!layout) return std::unexpected(layout.error());
-  auto pipeline = device.create_render_pipeline({.label = "neural-btf",
-                                                 .layout = &*layout,
-                                                 .vertex = &*vs,
-                                                 .fragment = &*fs,
-                                                 .vertex_buffers = {frame::vertex_layout()},
-                                                 .cull_mode = gpu::CullMode::None,
-                                                 .color_targets = {{color_format}},
-                                                 .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
+  auto make_pipeline = [&](const char* label, const gpu::ShaderModule& fragment) {
+    return device.create_render_pipeline({.label = label,
+                                          .layout = &*layout,
+                                          .vertex = &*vs,
+                                          .fragment = &fragment,
+                                          .vertex_buffers = {frame::vertex_layout()},
+                                          .cull_mode = gpu::CullMode::None,
+                                          .color_targets = {{color_format}},
+                                          .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
+  };
+  auto pipeline = make_pipeline("neural-btf", *fs);
   if (!pipeline) return std::unexpected(pipeline.error());
+  auto paper_pipeline = make_pipeline("neural-btf-paper", *paper_fs);
+  if (!paper_pipeline) return std::unexpected(paper_pipeline.error());
   auto shadow_compare = device.create_sampler({.label = "neural-btf-shadow", .mipmap_filter = gpu::FilterMode::Nearest,
                                                .compare = gpu::CompareFunction::LessEqual, .max_lod = 0.0f});
   if (!shadow_compare) return std::unexpected(shadow_compare.error());
   NeuralBtfPass pass;
   pass.state_ = std::make_shared<State>(State{std::move(*frame_layout), std::move(*material_layout), std::move(*layout),
-                                              std::move(*pipeline), std::move(*shadow_compare)});
+                                              std::move(*pipeline), std::move(*paper_pipeline), std::move(*shadow_compare)});
   return pass;
 }
 
 Result<std::shared_ptr<NeuralBtfGpuMaterial>> NeuralBtfPass::create_material(gpu::Device& device,
                                                                              const btf::NeuralBtfMaterial& params,
-                                                                             const gpu::Buffer& model) const {
+                                                                             const GpuBtfModel& model) const {
   auto group = device.create_bind_group(
-      {.label = "neural-btf-model", .layout = &state_->material_layout, .entries = {gpu::bind(0, model)}});
+      {.label = "neural-btf-model", .layout = &state_->material_layout, .entries = {gpu::bind(0, model.buffer)}});
   if (!group) return std::unexpected(group.error());
-  return std::make_shared<NeuralBtfGpuMaterial>(NeuralBtfGpuMaterial{params, &model, std::move(*group)});
+  return std::make_shared<NeuralBtfGpuMaterial>(
+      NeuralBtfGpuMaterial{params, &model.buffer, model.paper_shape, std::move(*group)});
 }
 
 Result<void> NeuralBtfPass::add(RenderGraph& graph, std::span<const NeuralBtfDraw> draws,
@@ -286,10 +330,15 @@ Result<void> NeuralBtfPass::add(RenderGraph& graph, std::span<const NeuralBtfDra
             {.label = "neural_btf",
              .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}},
              .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .load = gpu::LoadOp::Load}});
-        pass.set_pipeline(state->pipeline);
-        pass.set_bind_group(0, frame_group);
+        const gpu::RenderPipeline* bound = nullptr;
         for (const NeuralBtfDraw& draw : draws) {
           const NeuralBtfGpuMaterial& mat = *materials[draw.material];
+          const gpu::RenderPipeline* pipeline = mat.paper_shape ? &state->paper_pipeline : &state->pipeline;
+          if (pipeline != bound) {
+            pass.set_pipeline(*pipeline);
+            pass.set_bind_group(0, frame_group);
+            bound = pipeline;
+          }
           const btf::NeuralBtfMaterial& m = mat.params;
           const int flags = (m.ambient ? flag_ambient : 0) | (m.filter == btf::TexelFilter::Bilinear ? flag_bilinear : 0) |
                             (m.shadow ? flag_shadow : 0);

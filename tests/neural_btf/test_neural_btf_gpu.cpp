@@ -130,12 +130,17 @@ std::string save_model(const btf::NeuralBtf& m, const std::string& name) {
 TEST_CASE("the shader's decoder equals the CPU decode on a grid of texels and directions, θ = 0 and 90° included") {
   auto kernel = passes::BtfDecodeKernel::create(device());
   REQUIRE_MESSAGE(kernel, (kernel ? "" : kernel.error().message));
-  for (int variant = 0; variant < 2; ++variant) {
-    const btf::NeuralBtf model = variant == 0 ? btf::random_model({.width = 5, .height = 3, .seed = 5})
-                                              : btf::random_model({.width = 6, .height = 4, .clusters = 7, .scales = true,
-                                                                   .output_scale = 2.5f, .seed = 6});
-    auto buffer = passes::upload_model(device(), model, "test-model");
+  // Variants: the paper's shape (unrolled and generic shaders), clustered with scales, and an
+  // odd shape (latent 5, widths not multiples of 4) through the generic shader.
+  for (int variant = 0; variant < 4; ++variant) {
+    const btf::NeuralBtf model =
+        variant <= 1 ? btf::random_model({.width = 5, .height = 3, .seed = 5})
+        : variant == 2
+            ? btf::random_model({.width = 6, .height = 4, .clusters = 7, .scales = true, .output_scale = 2.5f, .seed = 6})
+            : btf::random_model({.width = 3, .height = 3, .latent_size = 5, .hidden = {37, 9}, .clusters = 4, .seed = 8});
+    auto buffer = passes::upload_model(device(), model, "test-model", variant != 1);
     REQUIRE_MESSAGE(buffer, (buffer ? "" : buffer.error().message));
+    CHECK(buffer->paper_shape == (variant == 0 || variant == 2));
     std::vector<passes::DecodeQuery> queries;
     const float thetas[] = {0.0f, 1e-3f, 15.0f, 45.0f, 75.0f, 89.9f, 90.0f};
     const float phis[] = {0.0f, 70.0f, 200.0f};
@@ -163,7 +168,7 @@ TEST_CASE("the shader's decoder equals the CPU decode on a grid of texels and di
                                                                         << " cpu " << cpu[c]);
       }
     }
-    MESSAGE("variant " << variant << ": " << queries.size() << " queries, worst relative difference " << worst
+    MESSAGE("variant " << variant << std::string(buffer->paper_shape ? " (unrolled)" : " (generic)") << ": " << queries.size() << " queries, worst relative difference " << worst
                        << ", largest output " << largest);
     CHECK(nonzero > int(queries.size()) / 4);  // not a comparison of zeros (ReLU-clamped outputs)
   }
