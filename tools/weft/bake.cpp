@@ -2,6 +2,7 @@
 // sub-subcommand made by one function below and listed in add_bake (one line each):
 //   weft bake skin-lut -o lut.exr|png [--size N] [--range penner|adaptive|full] ...
 //   weft bake ssdf SCENE -o out.wssdf [--resolution n] [--clusters k] [--components m | --energy f] ...
+//   weft bake btf IN|--synthetic WxH -o out.wbtf [--clusters k] [--epochs n | --minutes m] ... (bake_btf.cpp)
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -179,6 +180,7 @@ Command add_bake(CLI::App& app) {
   auto targets = std::make_shared<std::vector<BakeTarget>>();
   targets->push_back(add_skin_lut(*bake));
   targets->push_back(add_ssdf(*bake));
+  targets->push_back(add_bake_btf(*bake));
   return [targets] {
     for (auto& [sub, run] : *targets)
       if (sub->parsed()) return run();

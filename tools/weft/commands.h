@@ -3,6 +3,7 @@
 #pragma once
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <utility>
 
 namespace weft::cli {
 using Command = std::function<int()>;
@@ -10,4 +11,7 @@ Command add_info(CLI::App& app);
 Command add_render(CLI::App& app);
 Command add_graph(CLI::App& app);
 Command add_bake(CLI::App& app);  // bake.cpp: `weft bake <asset>`
+// bake_btf.cpp: `weft bake btf` (its sub-command of `bake` and what runs it).
+std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake);
+Command add_tradeoff(CLI::App& app);  // tradeoff.cpp: `weft tradeoff SCENE --feature F`
 }  // namespace weft::cli

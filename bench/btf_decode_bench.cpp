@@ -1,0 +1,303 @@
+// weft-bench-btf-decode: how fast the NeuralBTFMaterial's decoder runs on this device.
+//   kernel  the decode kernel (btf_decode.comp, the material's GLSL) over 512 x 512 queries:
+//           texels per second and GFLOP/s (2 FLOP per multiply-add, 24,383 of them per decode
+//           for the paper's 12 -> 106 -> 106 -> 106 -> 3 decoder) against the CPU's peak
+//           estimate, plain and clustered models; the scalar CPU decode (weft::btf::decode,
+//           one thread) is the baseline measured in the same run
+//   frame   a 512 x 512 frame filled by a neural_btf quad through weft::renderer: the pass's
+//           GPU time per quality knob (decodes per pixel: key light, + ambient, bilinear)
+//   storage the .wbtf sizes of the paper's models in fp32 and compact storage, and what fp16
+//           weights and latents change in the decoded values
+//
+//   build/bin/weft-bench-btf-decode [kernel] [frame] [storage] [--runs N] [--size N] [--ghz F]
+//
+// Times are medians over --runs runs (default 5) of steady_clock around submit + wait.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <random>
+#include <set>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+#include <glm/glm.hpp>
+import weft.core;
+import weft.gpu;
+import weft.scene;
+import weft.renderer;
+import weft.btf.model;
+import weft.pass.neural_btf;
+
+using namespace weft;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+struct Options {
+  int runs = 5;
+  std::uint32_t size = 512;
+  double ghz = 0.0;  // 0: from /proc/cpuinfo
+  std::set<std::string> sections;
+  [[nodiscard]] bool wants(const std::string& s) const { return sections.empty() || sections.contains(s); }
+};
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+// The clock the kernel reports (cpu MHz of /proc/cpuinfo; on a VM the nominal frequency).
+double cpu_ghz() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("cpu MHz", 0) == 0)
+      if (auto colon = line.find(':'); colon != std::string::npos) return std::atof(line.c_str() + colon + 1) / 1000.0;
+  return 0.0;
+}
+
+// FP32 FLOP per cycle per core: AVX2 with two FMA pipes (Zen 2/3, Haswell and later) = 2 x 8 x 2.
+constexpr double kFlopPerCycle = 32.0;
+
+struct Session {
+  gpu::Instance instance;
+  gpu::Adapter adapter;
+  gpu::Device device;
+};
+std::optional<Session> open_session() {
+  auto instance = gpu::Instance::create({.application_name = "weft-bench-btf-decode"});
+  if (!instance) return std::nullopt;
+  auto adapter = instance->request_adapter();
+  if (!adapter) return std::nullopt;
+  auto device = adapter->request_device();
+  if (!device) return std::nullopt;
+  return Session{std::move(*instance), std::move(*adapter), std::move(*device)};
+}
+
+std::size_t multiply_adds(const btf::NeuralBtf& m) { return m.decoder.parameter_count(); }
+
+std::vector<passes::DecodeQuery> random_queries(const btf::NeuralBtf& m, std::size_t count, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  auto hemisphere = [&] {
+    const float z = u(rng), phi = 2.0f * pi * u(rng), r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+    return vec3(r * std::cos(phi), r * std::sin(phi), z);
+  };
+  std::vector<passes::DecodeQuery> q(count);
+  for (auto& x : q) x = {hemisphere(), float(rng() % m.texels()), hemisphere(), 0.0f};
+  return q;
+}
+
+void kernel_table(Session& s, const Options& o, double peak_gflops) {
+  auto kernel = passes::BtfDecodeKernel::create(s.device);
+  if (!kernel) {
+    std::printf("kernel: %s\n", kernel.error().what().c_str());
+    return;
+  }
+  const std::size_t count = std::size_t(o.size) * o.size;
+  std::printf("\n## Decode kernel, %u x %u queries (random texels and hemisphere directions)\n\n", o.size, o.size);
+  std::printf("| model | ms (median of %d) | Mtexels/s | GFLOP/s | %% of CPU peak | CPU scalar decode, 1 thread: Mtexels/s | GPU / CPU-1-thread |\n",
+              o.runs);
+  std::printf("|:--|--:|--:|--:|--:|--:|--:|\n");
+  struct Variant {
+    const char* name;
+    btf::RandomModelOptions options;
+    bool unrolled;
+  };
+  const Variant variants[] = {
+      {"plain, 100 x 100 latents, generic shader", {.width = 100, .height = 100}, false},
+      {"plain, 100 x 100 latents, unrolled shader", {.width = 100, .height = 100}, true},
+      {"clustered k = 500 + scales, unrolled shader", {.width = 100, .height = 100, .clusters = 500, .scales = true}, true},
+  };
+  for (const auto& v : variants) {
+    const btf::NeuralBtf model = btf::random_model(v.options);
+    auto buffer = passes::upload_model(s.device, model, "bench-model", v.unrolled);
+    const auto queries = random_queries(model, count, 1);
+    auto in = s.device.create_buffer_with_data({.label = "queries", .size = count * sizeof(passes::DecodeQuery),
+                                                .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
+                                               std::as_bytes(std::span(queries)));
+    auto out = s.device.create_buffer(
+        {.label = "results", .size = count * sizeof(vec4), .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopySrc});
+    if (!buffer || !in || !out) {
+      std::printf("| %s | upload failed | | | | | |\n", v.name);
+      continue;
+    }
+    (void)kernel->run(s.device, *buffer, *in, *out, std::uint32_t(count));  // warm-up (pipeline compile)
+    std::vector<double> seconds;
+    for (int r = 0; r < o.runs; ++r) {
+      auto t = kernel->run(s.device, *buffer, *in, *out, std::uint32_t(count));
+      if (!t) {
+        std::printf("| %s | %s | | | | | |\n", v.name, t.error().what().c_str());
+        break;
+      }
+      seconds.push_back(*t);
+    }
+    const double t = median(seconds);
+    const double rate = double(count) / t;
+    const double gflops = rate * 2.0 * double(multiply_adds(model)) / 1e9;
+    // The CPU baseline: weft::btf::decode on one thread, a 4096-query sample.
+    const std::size_t cpu_count = 4096;
+    std::vector<double> cpu_seconds;
+    volatile float sink = 0.0f;
+    for (int r = 0; r < std::max(1, o.runs / 2); ++r) {
+      const auto start = Clock::now();
+      for (std::size_t i = 0; i < cpu_count; ++i) {
+        const auto& q = queries[i];
+        sink = sink + btf::decode(model, std::size_t(q.texel), q.light, q.view).x;
+      }
+      cpu_seconds.push_back(std::chrono::duration<double>(Clock::now() - start).count());
+    }
+    const double cpu_rate = double(cpu_count) / median(cpu_seconds);
+    std::printf("| %s | %.1f | %.3f | %.2f | %.1f %% | %.3f | %.1fx |\n", v.name, t * 1e3, rate / 1e6, gflops,
+                peak_gflops > 0 ? 100.0 * gflops / peak_gflops : 0.0, cpu_rate / 1e6, rate / cpu_rate);
+  }
+}
+
+std::string quad_scene(const std::string& model_path, const std::string& knobs, std::uint32_t size) {
+  return weft::format(R"({{"version": 1, "output": {{"width": {0}, "height": {0}}},
+    "camera": {{"position": [0, 0, 40], "target": [0, 0, 0], "fov": 2.6, "near": 30, "far": 50}},
+    "environment": {{"color": [0.2, 0.2, 0.2]}},
+    "lights": [{{"type": "directional", "direction": [0.3, -0.2, -1], "intensity": 2}}],
+    "meshes": {{"quad": {{"primitive": "plane", "size": 2, "subdivisions": 1}}}},
+    "materials": {{"cloth": {{"type": "neural_btf", "model": "{1}", "uv_scale": 4 {2}}}}},
+    "objects": [{{"name": "quad", "mesh": "quad", "material": "cloth", "transform": {{"rotation_degrees": [90, 0, 0]}}}}]}})",
+                      size, model_path, knobs);
+}
+
+void frame_table(Session& s, const Options& o, double peak_gflops) {
+  const auto dir = std::filesystem::temp_directory_path() / "weft-bench-btf-decode";
+  std::filesystem::create_directories(dir);
+  const auto path = dir / "paper.wbtf";
+  const btf::NeuralBtf model = btf::random_model({.width = 100, .height = 100, .clusters = 500, .scales = true});
+  if (auto ok = btf::save_wbtf(model, path); !ok) {
+    std::printf("frame: %s\n", ok.error().what().c_str());
+    return;
+  }
+  auto r = renderer::Renderer::create(s.device);
+  if (!r) return;
+  std::printf("\n## A %u x %u frame covered by a neural_btf quad (clustered k = 500 model)\n\n", o.size, o.size);
+  std::printf("| knobs | decodes / pixel | neural_btf pass GPU ms (median of %d) | Mpixels/s | GFLOP/s | %% of CPU peak | frame ms |\n",
+              o.runs);
+  std::printf("|:--|--:|--:|--:|--:|--:|--:|\n");
+  struct Knobs {
+    const char* name;
+    const char* json;
+    int decodes;
+  };
+  const Knobs rows[] = {
+      {"key light only (quality low)", R"(, "ambient": false, "filter": "nearest", "shadow": false)", 1},
+      {"+ shadow map", R"(, "ambient": false, "filter": "nearest", "shadow": true)", 1},
+      {"+ ambient decode (quality medium)", R"(, "ambient": true, "filter": "nearest", "shadow": true)", 2},
+      {"+ bilinear texels (quality high)", R"(, "ambient": true, "filter": "bilinear", "shadow": true)", 8},
+  };
+  for (const auto& k : rows) {
+    auto desc = scene::parse_scene(quad_scene(path.string(), k.json, o.size), dir);
+    if (!desc) {
+      std::printf("| %s | %s |\n", k.name, desc.error().message.c_str());
+      continue;
+    }
+    auto sc = scene::load_scene(*desc);
+    if (!sc) continue;
+    std::vector<double> pass_ms, frame_ms;
+    for (int run = 0; run <= o.runs; ++run) {
+      auto frame = r->render(*sc, {.quality = Quality::Medium});
+      if (!frame) {
+        std::printf("| %s | %s |\n", k.name, frame.error().message.c_str());
+        break;
+      }
+      if (run == 0) continue;  // warm-up: model upload, pipelines
+      for (const auto& p : frame->stats.passes)
+        if (p.name == "neural_btf") pass_ms.push_back(p.gpu_ms);
+      frame_ms.push_back(frame->stats.cpu_frame_ms);
+    }
+    const double ms = median(pass_ms);
+    // Pixels the quad covers: all of them (the quad is larger than the view).
+    const double pixels = double(o.size) * o.size;
+    const double rate = pixels / (ms / 1e3);
+    const double gflops = rate * k.decodes * 2.0 * double(multiply_adds(model)) / 1e9;
+    std::printf("| %s | %d | %.1f | %.3f | %.2f | %.1f %% | %.1f |\n", k.name, k.decodes, ms, rate / 1e6, gflops,
+                peak_gflops > 0 ? 100.0 * gflops / peak_gflops : 0.0, median(frame_ms));
+  }
+}
+
+void storage_table() {
+  std::printf("\n## Storage: the paper's models (100 x 100 texels, 8-D latents, 24,383-parameter decoder)\n\n");
+  std::printf("| model | storage | decoder | latents | ids | scales | total KB | ratio to 751 MB raw | max |Δ| of decoded RGB vs fp32 |\n");
+  std::printf("|:--|:--|--:|--:|--:|--:|--:|--:|--:|\n");
+  const double raw = 100.0 * 100 * 6561 * 3 * 4;
+  struct Row {
+    const char* name;
+    btf::RandomModelOptions options;
+  };
+  const Row rows[] = {
+      {"plain", {.width = 100, .height = 100}},
+      {"k = 500 + scales", {.width = 100, .height = 100, .clusters = 500, .scales = true}},
+      {"k = 256 + scales", {.width = 100, .height = 100, .clusters = 256, .scales = true}},
+  };
+  for (const auto& row : rows) {
+    const btf::NeuralBtf m = btf::random_model(row.options);
+    for (const auto& [label, opts] : {std::pair{"fp32", btf::WbtfOptions{}}, std::pair{"compact", btf::kCompactWbtf}}) {
+      auto bytes = btf::encode_wbtf(m, opts);
+      if (!bytes) continue;
+      auto back = btf::decode_wbtf(*bytes, "memory");
+      if (!back) continue;
+      float worst = 0.0f;
+      std::mt19937_64 rng(3);
+      const auto queries = random_queries(m, 2000, 2);
+      for (const auto& q : queries)
+        worst = std::max(worst, glm::length(btf::decode(m, std::size_t(q.texel), q.light, q.view) -
+                                            btf::decode(*back, std::size_t(q.texel), q.light, q.view)));
+      const auto b = btf::model_bytes(m, opts);
+      std::printf("| %s | %s | %zu | %zu | %zu | %zu | %.1f | 1:%.0f | %.2g |\n", row.name, label, b.decoder, b.latents,
+                  b.ids, b.scales, double(bytes->size()) / 1024.0, raw / double(bytes->size()), double(worst));
+    }
+  }
+  std::printf("\n(file sizes include the 72-byte header and the section framing; the decoded difference is over 2,000 "
+              "random texel/direction queries of a random-weight model, whose outputs are O(1))\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--runs" && i + 1 < argc) o.runs = std::max(1, std::atoi(argv[++i]));
+    else if (a == "--size" && i + 1 < argc) o.size = std::uint32_t(std::max(8, std::atoi(argv[++i])));
+    else if (a == "--ghz" && i + 1 < argc) o.ghz = std::atof(argv[++i]);
+    else if (a == "-h" || a == "--help") {
+      std::printf("weft-bench-btf-decode [kernel] [frame] [storage] [--runs N] [--size N] [--ghz F]\n");
+      return 0;
+    } else if (a.starts_with("-")) {
+      std::fprintf(stderr, "unknown option %s\n", a.c_str());
+      return 2;
+    } else {
+      o.sections.insert(a);
+    }
+  }
+  const unsigned threads = std::thread::hardware_concurrency();
+  const double ghz = o.ghz > 0 ? o.ghz : cpu_ghz();
+  const double peak = threads * ghz * kFlopPerCycle;
+  std::printf("# weft-bench-btf-decode\n\nCPU: %u hardware threads at %.2f GHz; FP32 peak estimate %u x %.2f GHz x %.0f "
+              "FLOP/cycle (AVX2, 2 FMA pipes) = %.0f GFLOP/s.\n",
+              threads, ghz, threads, ghz, kFlopPerCycle, peak);
+  if (o.wants("storage")) storage_table();
+  if (o.wants("kernel") || o.wants("frame")) {
+    auto session = open_session();
+    if (!session) {
+      std::printf("\n(no Vulkan device: kernel and frame sections skipped)\n");
+      return 0;
+    }
+    std::printf("\nDevice: %s (%s).\n", session->adapter.info().name.c_str(), session->adapter.info().driver.c_str());
+    if (o.wants("kernel")) kernel_table(*session, o, peak);
+    if (o.wants("frame")) frame_table(*session, o, peak);
+  }
+  return 0;
+}

@@ -1,0 +1,146 @@
+// weft-bench-btf-train: the neural BTF paper's Table 1/2 rows on the synthetic fabric
+// (docs/neural-btf.md, "Training numbers"): the plain neural BTF and clustered models, their
+// sizes as the issue counts them (fp32 weights and latents, int32 ids, fp32 scales) and
+// compact (fp16 weights/latents, 8/16-bit ids, 8-bit scales), ratios to the raw float BTF,
+// RMSE against the ground truth on the directions trained on and on held-out ones, and
+// training times.
+//   weft-bench-btf-train [--texels N] [--clusters k,k,...] [--minutes M] [--epochs E]
+//                        [--directions S] [--threads T] [--cache FILE] [--holdout EVERY]
+// --texels: an N x N synthetic twill at the paper's 81 x 81 directions (default 100, the
+// paper's 100 x 100). --clusters: 0 is the plain model (default 0,500,1000,2000; values above
+// the texel count are skipped). Each model trains for --minutes (and at most --epochs) on
+// the light and view directions whose index is not a multiple of --holdout (default 4:
+// 61 x 61 of 81 x 81); RMSE is reported on those pairs, on the held-out pairs (a light or a
+// view never trained on) and on all 6,561.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <span>
+#include <sstream>
+#include <string>
+#include <vector>
+import weft.core;
+import weft.btf;
+import weft.btf.model;
+import weft.btf.training;
+
+using namespace weft;
+using namespace weft::btf;
+
+namespace {
+
+double kib(std::size_t bytes) { return double(bytes) / 1024.0; }
+
+std::vector<std::uint32_t> parse_list(const std::string& text) {
+  std::vector<std::uint32_t> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) out.push_back(std::uint32_t(std::stoul(item)));
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::uint32_t texels = 100, epochs = 1000000, directions = 0, holdout = 4;
+  double minutes = 5.0;
+  std::size_t threads = 0;
+  std::vector<std::uint32_t> clusters{0, 500, 1000, 2000};
+  std::filesystem::path cache;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string a = argv[i], v = argv[i + 1];
+    if (a == "--texels") texels = std::uint32_t(std::stoul(v));
+    else if (a == "--clusters") clusters = parse_list(v);
+    else if (a == "--minutes") minutes = std::stod(v);
+    else if (a == "--epochs") epochs = std::uint32_t(std::stoul(v));
+    else if (a == "--directions") directions = std::uint32_t(std::stoul(v));
+    else if (a == "--threads") threads = std::stoul(v);
+    else if (a == "--cache") cache = v;
+    else if (a == "--holdout") holdout = std::uint32_t(std::stoul(v));
+    else {
+      std::fprintf(stderr, "unknown option %s\n", a.c_str());
+      return 2;
+    }
+  }
+  // The data: the synthetic twill at the paper's sampling, cached as .btfraw.
+  Btf btf;
+  const auto t_data = std::chrono::steady_clock::now();
+  if (!cache.empty() && std::filesystem::exists(cache)) {
+    auto loaded = load_btf(cache);
+    if (!loaded) return std::fprintf(stderr, "%s\n", loaded.error().what().c_str()), 1;
+    btf = std::move(*loaded);
+  } else {
+    SyntheticOptions so;
+    so.width = so.height = texels;
+    so.threads = threads;
+    auto made = synthetic_btf(so);
+    if (!made) return std::fprintf(stderr, "%s\n", made.error().what().c_str()), 1;
+    btf = std::move(*made);
+    if (!cache.empty())
+      if (auto ok = save_btf(btf, cache); !ok) std::fprintf(stderr, "cache: %s\n", ok.error().what().c_str());
+  }
+  const double data_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_data).count();
+  const std::size_t M = btf.texels();
+  const std::size_t raw = btf.rgb.size() * sizeof(float);
+  std::printf("data: synthetic twill %u x %u texels x %zu x %zu directions, raw %.1f MiB (%.1f s to make or load)\n",
+              btf.width, btf.height, btf.lights.size(), btf.views.size(), double(raw) / 1048576.0, data_s);
+
+  std::vector<std::size_t> train_l, train_v;
+  for (std::size_t i = 0; i < btf.lights.size(); ++i)
+    if (holdout == 0 || i % holdout != 0) train_l.push_back(i);
+  for (std::size_t i = 0; i < btf.views.size(); ++i)
+    if (holdout == 0 || i % holdout != 0) train_v.push_back(i);
+  auto train_set = select_directions(btf, train_l, train_v);
+  if (!train_set) return std::fprintf(stderr, "%s\n", train_set.error().what().c_str()), 1;
+  std::vector<bool> trained_pair(btf.samples_per_texel(), false);
+  for (auto l : train_l)
+    for (auto v : train_v) trained_pair[l * btf.views.size() + v] = true;
+  std::vector<bool> held_pair(trained_pair.size());
+  for (std::size_t i = 0; i < held_pair.size(); ++i) held_pair[i] = !trained_pair[i];
+  // std::vector<bool> is not contiguous; model_rmse takes a span of bool.
+  std::unique_ptr<bool[]> trained_mask(new bool[trained_pair.size()]), held_mask(new bool[trained_pair.size()]);
+  for (std::size_t i = 0; i < trained_pair.size(); ++i) trained_mask[i] = trained_pair[i], held_mask[i] = held_pair[i];
+  std::printf("training on %zu x %zu directions, %zu of %zu pairs held out; %.1f min per model, %s directions per texel "
+              "per step, batch 5 texels\n",
+              train_l.size(), train_v.size(), btf.samples_per_texel() - train_l.size() * train_v.size(),
+              btf.samples_per_texel(), minutes, directions ? std::to_string(directions).c_str() : "all");
+
+  std::printf("\n| model | k | fp32 KiB (issue's count) | ratio | compact KiB | ratio | RMSE trained | RMSE held-out | RMSE all | epochs | train s | cluster s |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (std::uint32_t k : clusters) {
+    if (k > M) {
+      std::printf("| clustered | %u | skipped: more clusters than the %zu texels |\n", k, M);
+      continue;
+    }
+    TrainOptions o;
+    o.clusters = k;
+    o.epochs = epochs;
+    o.max_seconds = minutes * 60.0;
+    o.directions_per_texel = directions;
+    o.threads = threads;
+    o.progress_interval_s = 30.0;
+    o.progress = [k](const TrainProgress& p) {
+      std::fprintf(stderr, "  k=%u epoch %zu step %zu/%zu%s loss %.3g, %.0f %%, ETA %s\n", k, p.epoch + 1, p.step,
+                   p.steps_per_epoch, p.finetuning ? " (latents)" : "", p.loss, 100.0 * p.fraction,
+                   describe_seconds(p.eta_s).c_str());
+    };
+    auto r = train_neural_btf(*train_set, o);
+    if (!r) return std::fprintf(stderr, "%s\n", r.error().what().c_str()), 1;
+    const WbtfOptions issue{FloatStorage::Fp32, FloatStorage::Fp32, IdStorage::U32, ScaleStorage::Fp32};
+    const ModelBytes full = model_bytes(r->model, issue), compact = model_bytes(r->model, kCompactWbtf);
+    auto e_train = model_rmse(r->model, btf, std::span<const bool>(trained_mask.get(), trained_pair.size()), threads);
+    auto e_held = model_rmse(r->model, btf, std::span<const bool>(held_mask.get(), held_pair.size()), threads);
+    auto e_all = model_rmse(r->model, btf, {}, threads);
+    if (!e_train || !e_held || !e_all) return std::fprintf(stderr, "RMSE failed\n"), 1;
+    std::printf("| %s | %u | %.1f (dec %.1f + lat %.1f + ids %.1f + scales %.1f) | 1:%.0f | %.1f | 1:%.0f | %.4f | %.4f | %.4f | %zu | %.0f | %.1f |\n",
+                k ? "clustered + scales" : "plain", r->clusters, kib(full.total()), kib(full.decoder), kib(full.latents),
+                kib(full.ids), kib(full.scales), double(raw) / double(full.total()), kib(compact.total()),
+                double(raw) / double(compact.total()), *e_train, *e_held, *e_all, r->epochs_done, r->seconds,
+                r->cluster_seconds);
+    std::fflush(stdout);
+  }
+  return 0;
+}

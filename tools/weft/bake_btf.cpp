@@ -1,0 +1,165 @@
+// `weft bake btf IN -o OUT.wbtf --clusters K ...`: trains a neural BTF (docs/neural-btf.md)
+// from a BTF on disk (a .btfraw, or a UBO2003 / UTIA folder) or from the synthetic fabric,
+// writes the .wbtf and prints sizes, the ratio to the raw float data and the RMSE.
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <expected>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <utility>
+#include "commands.h"
+import weft.core;
+import weft.btf;
+import weft.btf.model;
+import weft.btf.training;
+
+namespace weft::cli {
+
+namespace {
+
+int failed(const Error& e) {
+  std::fprintf(stderr, "weft bake btf: %s\n", e.what().c_str());
+  return 1;
+}
+int invalid(std::string message) { return failed(Error{ErrorKind::InvalidArgument, std::move(message)}); }
+
+// "64x48" -> (64, 48).
+bool parse_size(const std::string& text, std::uint32_t& w, std::uint32_t& h) {
+  const auto x = text.find('x');
+  if (x == std::string::npos || x == 0 || x + 1 == text.size()) return false;
+  try {
+    std::size_t used = 0;
+    const unsigned long a = std::stoul(text.substr(0, x), &used);
+    if (used != x) return false;
+    const unsigned long b = std::stoul(text.substr(x + 1), &used);
+    if (used != text.size() - x - 1 || a == 0 || b == 0 || a > 4096 || b > 4096) return false;
+    w = std::uint32_t(a), h = std::uint32_t(b);
+    return true;
+  } catch (...) {
+    return false;
+  }
+}
+
+}  // namespace
+
+std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
+  struct Args {
+    std::string input, output, synthetic, weave = "twill", checkpoint;
+    std::uint32_t clusters = 0, epochs = 0, directions = 0, batch = 5;
+    double minutes = 0.0, learning_rate = 0.0, finetune = 0.25;
+    std::uint64_t seed = 1;
+    std::size_t threads = 0;
+    bool compact = false, no_scales = false, resume = false;
+  };
+  auto a = std::make_shared<Args>();
+  auto* sub = bake.add_subcommand("btf", "Train a neural BTF (encoder + decoder, optionally clustered): a .wbtf file");
+  sub->add_option("input", a->input, "BTF: a .btfraw file or a UBO2003 / UTIA image folder (or use --synthetic)");
+  sub->add_option("-o,--output", a->output, "Output .wbtf file")->required();
+  sub->add_option("--clusters", a->clusters, "k clusters of ABRDFs (0: the plain model, a latent per texel)")
+      ->capture_default_str();
+  sub->add_option("--synthetic", a->synthetic, "Instead of IN: the synthetic fabric, WxH texels at 81 x 81 directions");
+  sub->add_option("--weave", a->weave, "Synthetic weave: plain, twill or knit")->capture_default_str();
+  sub->add_option("--epochs", a->epochs, "Epochs (each visits every texel once; default 20, or unlimited with --minutes)");
+  sub->add_option("--minutes", a->minutes, "Training time budget in minutes (0: none)");
+  sub->add_option("--directions", a->directions, "Light/view pairs per texel per step (0: all, the paper's)")
+      ->capture_default_str();
+  sub->add_option("--batch", a->batch, "Texels per SGD step")->capture_default_str();
+  sub->add_option("--learning-rate", a->learning_rate, "SGD learning rate (0: 0.05 plain, 0.08 clustered)");
+  sub->add_option("--finetune", a->finetune, "Fraction of the training spent on decoder + latents alone, [0, 1]")
+      ->capture_default_str();
+  sub->add_option("--seed", a->seed, "Seed of the synthetic data, the clustering and the training")->capture_default_str();
+  sub->add_option("--threads", a->threads, "Threads (0: all; the result does not depend on it)")->capture_default_str();
+  sub->add_option("--checkpoint", a->checkpoint, "Checkpoint file, written every epoch");
+  sub->add_flag("--resume", a->resume, "Continue from --checkpoint when it exists");
+  sub->add_flag("--compact", a->compact, "Store fp16 weights and latents, 8/16-bit ids, 8-bit scales");
+  sub->add_flag("--no-scales", a->no_scales, "Clustered without the per-texel luminance scale");
+  return {sub, [a] {
+            if (a->input.empty() == a->synthetic.empty())
+              return invalid("give either a BTF path (IN) or --synthetic WxH, not both or neither");
+            if (a->batch == 0) return invalid("--batch 0 (must be at least 1)");
+            if (!(a->minutes >= 0.0)) return invalid(weft::format("--minutes {} is negative", a->minutes));
+            if (!(a->finetune >= 0.0 && a->finetune <= 1.0))
+              return invalid(weft::format("--finetune {} is outside [0, 1]", a->finetune));
+            if (!(a->learning_rate >= 0.0)) return invalid(weft::format("--learning-rate {} is negative", a->learning_rate));
+            if (a->resume && a->checkpoint.empty()) return invalid("--resume needs --checkpoint FILE");
+            btf::Btf data;
+            std::string source;
+            if (!a->synthetic.empty()) {
+              btf::SyntheticOptions so;
+              if (!parse_size(a->synthetic, so.width, so.height))
+                return invalid(weft::format("--synthetic '{}' is not WxH (e.g. 64x64, each 1..4096)", a->synthetic));
+              auto weave = btf::parse_weave(a->weave);
+              if (!weave) return failed(weave.error());
+              so.weave = *weave;
+              so.seed = a->seed;
+              so.threads = a->threads;
+              std::printf("making the synthetic %s, %u x %u texels x 81 x 81 directions...\n", a->weave.c_str(), so.width,
+                          so.height);
+              std::fflush(stdout);
+              auto made = btf::synthetic_btf(so);
+              if (!made) return failed(made.error());
+              data = std::move(*made);
+              source = weft::format("synthetic {} {}", a->weave, a->synthetic);
+            } else {
+              auto loaded = btf::load_btf(std::filesystem::path(a->input));
+              if (!loaded) return failed(loaded.error());
+              data = std::move(*loaded);
+              source = a->input;
+            }
+            btf::TrainOptions o;
+            o.clusters = a->clusters;
+            o.texel_scales = !a->no_scales;
+            o.learning_rate = float(a->learning_rate);
+            o.batch = a->batch;
+            o.directions_per_texel = a->directions;
+            o.epochs = a->epochs ? a->epochs : (a->minutes > 0.0 ? 1000000u : 20u);
+            o.max_seconds = a->minutes * 60.0;
+            o.finetune_fraction = float(a->finetune);
+            o.seed = a->seed;
+            o.threads = a->threads;
+            o.checkpoint = a->checkpoint;
+            o.resume = a->resume;
+            o.progress = [](const btf::TrainProgress& p) {
+              std::printf("epoch %zu/%zu step %zu/%zu%s: loss %.4g, %.0f %%, %s elapsed, ETA %s\n", p.epoch + 1, p.epochs,
+                          p.step, p.steps_per_epoch, p.finetuning ? " (latents + decoder)" : "", p.loss, 100.0 * p.fraction,
+                          btf::describe_seconds(p.elapsed_s).c_str(), btf::describe_seconds(p.eta_s).c_str());
+              std::fflush(stdout);
+            };
+            if (a->clusters > data.texels())
+              return invalid(weft::format("--clusters {} is more than the {} texels of {}", a->clusters, data.texels(), source));
+            std::printf("training on %s: %u x %u texels, %zu x %zu directions, %s\n", source.c_str(), data.width,
+                        data.height, data.lights.size(), data.views.size(),
+                        a->clusters ? weft::format("k = {} clusters", a->clusters).c_str() : "plain (a latent per texel)");
+            std::fflush(stdout);
+            auto trained = btf::train_neural_btf(data, o);
+            if (!trained) return failed(trained.error());
+            const btf::WbtfOptions storage = a->compact ? btf::kCompactWbtf : btf::WbtfOptions{};
+            if (auto ok = btf::save_wbtf(trained->model, a->output, storage); !ok) return failed(ok.error());
+            auto error = btf::model_rmse(trained->model, data, {}, a->threads);
+            if (!error) return failed(error.error());
+            const btf::ModelBytes bytes = btf::model_bytes(trained->model, storage);
+            const double raw = double(data.rgb.size() * sizeof(float));
+            std::error_code ec;
+            const auto file_size = std::filesystem::file_size(a->output, ec);
+            double mean = 0.0;
+            for (float v : data.rgb) mean += v;
+            mean /= double(data.rgb.size());
+            std::printf("wrote %s: %u x %u texels, %zu latents%s, %zu epochs in %s (clustering %s)\n", a->output.c_str(),
+                        trained->model.width, trained->model.height, trained->model.latent_count(),
+                        trained->model.clustered() ? weft::format(" (k = {})", trained->clusters).c_str() : "",
+                        trained->epochs_done, btf::describe_seconds(trained->seconds).c_str(),
+                        btf::describe_seconds(trained->cluster_seconds).c_str());
+            std::printf("size: raw %.1f MiB -> %.1f KiB (decoder %.1f, latents %.1f, ids %.1f, scales %.1f; file %.1f KiB), "
+                        "ratio 1:%.0f\n",
+                        raw / 1048576.0, double(bytes.total()) / 1024.0, double(bytes.decoder) / 1024.0,
+                        double(bytes.latents) / 1024.0, double(bytes.ids) / 1024.0, double(bytes.scales) / 1024.0,
+                        ec ? 0.0 : double(file_size) / 1024.0, raw / double(bytes.total()));
+            std::printf("RMSE %.5f over every sample (mean sample %.4f), final training loss %.4g\n", *error, mean,
+                        trained->final_loss);
+            return 0;
+          }};
+}
+
+}  // namespace weft::cli
