@@ -29,11 +29,17 @@ std::string_view to_string(BtfDebugView d) {
   return "?";
 }
 
+NeuralBtfQualityPreset neural_btf_quality_preset(Quality quality) {
+  return {.ambient = quality != Quality::Low,
+          .filter = quality == Quality::High || quality == Quality::Reference ? TexelFilter::Bilinear : TexelFilter::Nearest};
+}
+
 Result<NeuralBtfMaterial> parse_neural_btf_material(const scene::Material& material, Quality quality) {
   try {
     NeuralBtfMaterial m;
-    m.ambient = quality != Quality::Low;
-    m.filter = quality == Quality::High || quality == Quality::Reference ? TexelFilter::Bilinear : TexelFilter::Nearest;
+    const NeuralBtfQualityPreset q = neural_btf_quality_preset(quality);
+    m.ambient = q.ambient;
+    m.filter = q.filter;
     scene::JsonErrors errors;
     const std::string path = material.json_path.empty() ? weft::format("$.materials.{}", material.name) : material.json_path;
     scene::JsonReader r(material.params, path, errors, material.base_dir);

@@ -55,9 +55,15 @@ struct NeuralBtfMaterial {
   BtfDebugView debug_view = BtfDebugView::None;
 };
 
+// What a quality preset sets when the material does not: low = no ambient decode, nearest;
+// medium = ambient, nearest; high and reference = ambient, bilinear.
+struct NeuralBtfQualityPreset {
+  bool ambient = true;
+  TexelFilter filter = TexelFilter::Nearest;
+};
+NeuralBtfQualityPreset neural_btf_quality_preset(Quality quality);
 // Reads a scene material's params with JsonReader: every problem in one Parse error, each at
-// its JSON path. `quality` sets the knobs the material leaves out: low = no ambient decode,
-// nearest; medium = ambient, nearest; high and reference = ambient, bilinear.
+// its JSON path; `quality` sets the knobs it leaves out (neural_btf_quality_preset).
 Result<NeuralBtfMaterial> parse_neural_btf_material(const scene::Material& material, Quality quality = Quality::Medium);
 
 }  // namespace weft::btf

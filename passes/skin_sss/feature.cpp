@@ -313,7 +313,7 @@ class SkinFeature final : public FeaturePass {
     }
     if (frame.uniforms.light_color != vec4(0.0f)) {
       for (std::size_t i = 0; i < draws_.size(); ++i) {
-        if (frame.quality != Quality::Reference && !frame_materials_[draws_[i].material]->params.reference) continue;
+        if (!frame_materials_[draws_[i].material]->params.reference) continue;  // set by the preset or the material
         const scene::Object& object = frame.scene.objects.at(frame.objects[i]);
         auto reference = reference_for(frame.scene.meshes.at(object.mesh), object.transform,
                                        frame_materials_[draws_[i].material]->params, vec3(frame.uniforms.light_direction));

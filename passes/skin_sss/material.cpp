@@ -33,19 +33,6 @@ std::string_view to_string(DebugView d) {
 
 namespace {
 
-struct QualityPreset {
-  std::uint32_t size, samples;
-};
-QualityPreset preset(Quality q) {
-  switch (q) {
-    case Quality::Low: return {64, 128};
-    case Quality::Medium: return {256, 256};
-    case Quality::High: return {512, 512};
-    case Quality::Reference: return {1024, 1024};
-  }
-  return {256, 256};
-}
-
 void read_lut(scene::JsonReader& r, LutParams& lut) {
   const scene::Range texels{.min = 2, .max = 4096};
   const auto size = static_cast<std::uint32_t>(r.integer("size", lut.width, texels));
@@ -69,12 +56,23 @@ void read_lut(scene::JsonReader& r, LutParams& lut) {
 
 }  // namespace
 
+SkinQualityPreset skin_quality_preset(Quality q) {
+  switch (q) {
+    case Quality::Low: return {64, 128, false};
+    case Quality::Medium: return {256, 256, false};
+    case Quality::High: return {512, 512, false};
+    case Quality::Reference: return {1024, 1024, true};
+  }
+  return {};
+}
+
 Result<SkinMaterial> parse_skin_material(const scene::Material& material, Quality quality) {
   try {
     SkinMaterial m;
-    const QualityPreset q = preset(quality);
-    m.lut.width = m.lut.height = q.size;
-    m.lut.samples = q.samples;
+    const SkinQualityPreset q = skin_quality_preset(quality);
+    m.lut.width = m.lut.height = q.lut_size;
+    m.lut.samples = q.lut_samples;
+    m.reference = q.reference;
     scene::JsonErrors errors;
     const std::string path = material.json_path.empty() ? weft::format("$.materials.{}", material.name) : material.json_path;
     scene::JsonReader r(material.params, path, errors, material.base_dir);

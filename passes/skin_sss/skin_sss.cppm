@@ -233,16 +233,24 @@ struct SkinMaterial {
   // meshes and lets light scattered a short way reach into cast shadows' edges.
   float shadow_scatter_mm = 2.0f;
   DebugView debug_view = DebugView::None;
-  // Shade with brute-force scattering per vertex (mesh_reference) instead of the LUT, as
-  // Quality::Reference does for every skin material: slow, for studies and comparisons.
+  // Shade with brute-force scattering per vertex (mesh_reference) instead of the LUT; the
+  // Reference preset turns it on unless the material says otherwise. Slow: for studies.
   bool reference = false;
   LutParams lut;
 };
 
+// What a quality preset sets when the material does not: the LUT's size and ring samples,
+// and (at Reference) the brute-force mode. Chosen from `weft tradeoff --feature skin`
+// (docs/tradeoffs.md).
+struct SkinQualityPreset {
+  std::uint32_t lut_size = 256, lut_samples = 256;
+  bool reference = false;
+};
+SkinQualityPreset skin_quality_preset(Quality quality);
+
 // Reads a scene material's params (scene::Material::params at json_path) with JsonReader:
 // every problem in one Parse error, each at its JSON path. `quality` picks the LUT size and
-// sample count unless the material sets them (low 64², medium 256², high 512², reference
-// 1024² with 1024 samples).
+// sample count unless the material sets them (skin_quality_preset).
 Result<SkinMaterial> parse_skin_material(const scene::Material& material, Quality quality = Quality::Medium);
 
 }  // namespace weft::skin

@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   add(weft::cli::add_render);
   add(weft::cli::add_graph);
   add(weft::cli::add_bake);
+  add(weft::cli::add_tradeoff);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -27,19 +27,6 @@ std::string_view to_string(ShadingMode mode) { return mode == ShadingMode::Verte
 
 namespace {
 
-struct QualityPreset {
-  std::uint32_t resolution, lobes;
-};
-QualityPreset preset(Quality q) {
-  switch (q) {
-    case Quality::Low: return {16, 8};
-    case Quality::Medium: return {32, 16};
-    case Quality::High: return {64, 32};
-    case Quality::Reference: return {64, 48};
-  }
-  return {32, 16};
-}
-
 // Bumped when the bake's output changes for the same knobs (part of the cache key).
 constexpr std::uint32_t kBakeRevision = 1;
 
@@ -64,10 +51,20 @@ void read_bake(scene::JsonReader& r, BakeOptions& bake) {
 
 }  // namespace
 
+SsdfQualityPreset ssdf_quality_preset(Quality q) {
+  switch (q) {
+    case Quality::Low: return {16, 8};
+    case Quality::Medium: return {32, 16};
+    case Quality::High: return {64, 32};
+    case Quality::Reference: return {64, 48};
+  }
+  return {};
+}
+
 Result<SsdfMaterial> parse_ssdf_material(const scene::Material& material, Quality quality) {
   try {
     SsdfMaterial m;
-    const QualityPreset q = preset(quality);
+    const SsdfQualityPreset q = ssdf_quality_preset(quality);
     m.lobes = q.lobes;
     m.bake.resolution = q.resolution;
     // Defaults from docs/ssdf.md's table: 32 clusters (k-means++) of 16 components keep the

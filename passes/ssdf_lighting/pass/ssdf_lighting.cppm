@@ -43,9 +43,16 @@ struct SsdfMaterial {
   BakeOptions bake;          // resolution and compression (visibility options at defaults)
 };
 
+// What a quality preset sets when the material does not: the bake's direction resolution
+// (n x n per vertex) and the environment's lobes.
+struct SsdfQualityPreset {
+  std::uint32_t resolution = 32, lobes = 16;
+};
+SsdfQualityPreset ssdf_quality_preset(Quality quality);
+
 // Reads a material's params with scene::JsonReader: every problem in one Parse error at its
-// JSON path. `quality` picks the defaults the material does not set: direction resolution
-// (low 16, medium 32, high and reference 64) and lobes (8, 16, 32, 48).
+// JSON path. `quality` picks the defaults the material does not set (ssdf_quality_preset):
+// direction resolution (low 16, medium 32, high and reference 64) and lobes (8, 16, 32, 48).
 Result<SsdfMaterial> parse_ssdf_material(const scene::Material& material, Quality quality = Quality::Medium);
 
 // The content key of a bake: every object's mesh and transform (all are occluders), which

@@ -1,0 +1,175 @@
+// weft.tradeoff — the speed/accuracy study of the features (`weft tradeoff`, docs/tradeoffs.md):
+// which quality knobs each feature has and what its reference is (the catalogue, one entry
+// per feature in catalogue.cpp), the settings a sweep renders, error against the reference
+// over the feature's pixels, the Pareto front, and the CSV / SVG / markdown reports.
+//
+// Nothing here touches a GPU: the `weft tradeoff` command renders the settings with the
+// renderer and hands the measurements back to this module, so the planning, the metrics
+// and the reports are unit-tested without a device.
+//
+// A knob is a field of the feature's material in the scene file ("layers", "lut.size"), so
+// a setting is applied by writing values into every material of the feature's type and the
+// renderer and the feature see an ordinary scene: what the study measures is what a user
+// gets by writing the same values into the scene file.
+module;
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+#include <nlohmann/json.hpp>
+export module weft.tradeoff;
+import weft.core;
+import weft.image;
+import weft.scene;
+import weft.feature;
+
+export namespace weft::tradeoff {
+
+// ---- knobs and studies ---------------------------------------------------------------------
+enum class KnobKind : std::uint8_t { Integer, Number, Boolean, Choice };
+
+struct Knob {
+  std::string name;                    // the material field; '.' descends into objects: "lut.size"
+  KnobKind kind = KnobKind::Integer;
+  double min = 0.0, max = 0.0;         // Integer, Number: inclusive, as the material accepts
+  std::vector<std::string> choices;    // Choice
+  std::vector<nlohmann::json> sweep;   // the values a sweep tries, one at a time
+  std::string meaning;                 // one line, for `--list` and the docs
+};
+
+// What a setting costs on the x axis of the plot.
+enum class CostAxis : std::uint8_t {
+  Frame,      // steady frame: median GPU time of the frames after the first
+  ColdFrame,  // the first frame with empty caches: the feature's bakes (LUTs) plus one frame
+};
+std::string_view to_string(CostAxis axis);
+
+// One point of a sweep: a quality preset and knob values written into the feature's materials.
+struct Setting {
+  std::string label;                          // "layers=32", "preset low", "reference"
+  std::string group;                          // "preset", "reference", "default", or the knob's name
+  Quality quality = Quality::Medium;
+  nlohmann::json values = nlohmann::json::object();  // knob name -> value
+  bool strip_knobs = false;  // presets: remove every knob from the materials, so the preset decides
+  bool is_reference = false;
+  std::optional<Quality> preset;              // set on the rows that are a preset
+};
+
+struct Study {
+  std::string feature;                        // the --feature name: "fur"
+  scene::MaterialType material = scene::MaterialType::Standard;
+  std::vector<std::string> passes;           // the feature's graph passes ("shell_fur"), for their GPU time
+  std::vector<Knob> knobs;
+  Setting reference;                          // the most accurate setting the feature has
+  std::string reference_why;                  // one line; docs/tradeoffs.md says more
+  CostAxis cost = CostAxis::Frame;
+  // Pairs of knobs whose sweeps are crossed (cheap ones only); others are one at a time.
+  std::vector<std::pair<std::string, std::string>> grids;
+  // Environment variables set while the study runs: an empty WEFT_SKIN_LUT_CACHE turns the
+  // skin LUT's disk cache off, so LUT bakes are timed cold on every run.
+  std::vector<std::pair<std::string, std::string>> environment;
+  // The knob values the feature's pass gives each quality preset (read from the pass, so the
+  // presets the study measures are the ones `weft render --quality` uses).
+  nlohmann::json (*preset_values)(Quality) = nullptr;
+  // Drops the feature's process-wide caches (baked LUTs), so every setting's first frame
+  // bakes cold; the renderer's own caches go with a fresh Renderer. May be null.
+  void (*clear_caches)() = nullptr;
+};
+
+// Every feature the study knows, in catalogue order (fur, skin, then the slots that are filled).
+std::span<const Study> studies();
+// NotFound naming the known features when `feature` is not one of them.
+Result<const Study*> find_study(std::string_view feature);
+Result<const Knob*> find_knob(const Study& study, std::string_view name);
+
+// "layers=1,2,4" -> the knob and its values, each checked against the knob (type, range,
+// choices); InvalidArgument naming the knob and the value otherwise.
+struct KnobValues {
+  const Knob* knob = nullptr;
+  std::vector<nlohmann::json> values;
+};
+Result<KnobValues> parse_knob_values(const Study& study, std::string_view text);
+Result<nlohmann::json> parse_knob_value(const Knob& knob, std::string_view text);
+Result<void> check_knob_value(const Knob& knob, const nlohmann::json& value);
+std::string value_text(const nlohmann::json& value);  // 32, 0.35, true, adaptive
+
+// ---- settings --------------------------------------------------------------------------------
+// The settings a sweep renders, the reference first: the four presets, each knob's sweep
+// one at a time around the medium preset (its values replaced by `overrides`), the grids;
+// duplicates (same quality and values) are rendered once under the first label.
+std::vector<Setting> plan_sweep(const Study& study, std::span<const KnobValues> overrides = {});
+// The stability sweep: the minimum and maximum of each knob (every choice, both booleans),
+// one at a time on top of `base`, plus the reference.
+std::vector<Setting> extreme_settings(const Study& study, const nlohmann::json& base = nlohmann::json::object());
+
+// Writes the setting into every material of the study's type (removing the knobs first
+// when the setting strips them). InvalidArgument when the scene has no such material.
+Result<void> apply_setting(scene::Scene& scene, const Study& study, const Setting& setting);
+bool scene_uses(const scene::Scene& scene, scene::MaterialType type);
+
+// ---- measuring -------------------------------------------------------------------------------
+// The pixels the feature covers: where `covered_a` and `covered_b` (the feature's objects
+// drawn as two different flat colours) differ, or where any of `renders` differs from
+// `reference`. One byte per pixel, 1 = covered.
+struct Mask {
+  std::uint32_t width = 0, height = 0;
+  std::vector<std::uint8_t> covered;
+  [[nodiscard]] std::size_t count() const;
+};
+Result<Mask> coverage_mask(const image::Image8& covered_a, const image::Image8& covered_b,
+                           std::span<const image::Image8* const> renders, const image::Image8& reference);
+Mask full_mask(std::uint32_t width, std::uint32_t height);
+
+struct ImageError {
+  double rmse = 0.0;      // linear RGB (sRGB decoded) over the mask's pixels
+  double psnr_db = 0.0;   // from that RMSE, peak 1; +inf when identical
+  double ssim = 1.0;      // weft.image's SSIM over the mask's bounding box
+  double max_diff = 0.0;  // largest linear difference in the mask
+  std::size_t pixels = 0;
+};
+Result<ImageError> compare(const image::Image8& render, const image::Image8& reference, const Mask& mask);
+
+// ---- results and reports -----------------------------------------------------------------------
+// Times are medians over the steady frames (those after the first).
+struct Row {
+  Setting setting;
+  double frame_ms = 0.0;        // the steady frame's cost: gpu_ms on a GPU, process_cpu_ms on a CPU adapter
+  double gpu_ms = 0.0;          // GPU timestamps, first pass to last
+  double feature_gpu_ms = 0.0;  // GPU timestamps of the feature's own passes
+  double process_cpu_ms = 0.0;  // CPU time of the process (every thread) per frame
+  double wall_ms = 0.0;         // CPU wall clock: record + submit + wait (FrameStats::cpu_frame_ms)
+  double cold_frame_ms = 0.0;   // wall time of the first frame with empty caches (bakes included)
+  ImageError error;
+  bool pareto = false;
+  [[nodiscard]] double cost(CostAxis axis) const { return axis == CostAxis::Frame ? frame_ms : cold_frame_ms; }
+};
+
+struct Point {
+  double cost = 0.0, error = 0.0;
+};
+// Indices of the points no other point dominates (no more cost and no more error, and less
+// of one), sorted by cost then error. Points equal in both are all kept.
+std::vector<std::size_t> pareto_front(std::span<const Point> points);
+// Marks rows[i].pareto by cost(axis) against RMSE; the reference row (error 0) is on it.
+void mark_pareto(std::span<Row> rows, CostAxis axis);
+
+struct ReportInfo {
+  std::string feature, scene, command, device;
+  std::uint32_t width = 0, height = 0, frames = 0;
+  CostAxis cost = CostAxis::Frame;
+  std::string frame_clock;  // what frame_ms is: GPU timestamps, or process CPU time
+  std::string mask_note;  // "1234 of 20000 pixels (the feature's coverage)"
+};
+// RFC 4180: quotes a field holding a comma, a quote, CR or LF, doubling the quotes.
+std::string csv_field(std::string_view field);
+std::string csv(std::span<const Row> rows, const ReportInfo& info);
+std::string markdown(std::span<const Row> rows, const ReportInfo& info);
+// Error (RMSE) against cost, log axes, the Pareto front joined and labelled, presets drawn
+// as labelled squares, the reference as a vertical line (its error is zero).
+std::string svg(std::span<const Row> rows, const ReportInfo& info);
+// XML text escaping for labels (&, <, >, ", ').
+std::string xml_escape(std::string_view text);
+
+}  // namespace weft::tradeoff

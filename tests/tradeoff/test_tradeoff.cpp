@@ -1,0 +1,350 @@
+// weft.tradeoff without a device: the catalogue (every feature, knobs inside what its
+// material accepts, presets read from the passes), knob parsing and its errors, the sweep
+// plan (reference first, no duplicates, grids crossed), the extremes, writing a setting into
+// a scene's materials (and the material parsers accepting it), the masked error metrics on
+// images with known differences, the Pareto front against brute force, and the reports.
+#include <doctest/doctest.h>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <expected>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+#include <nlohmann/json.hpp>
+import weft.core;
+import weft.image;
+import weft.scene;
+import weft.feature;
+import weft.tradeoff;
+import weft.pass.skin_sss;
+import weft.pass.shell_fur;
+import weft.pass.ssdf_lighting;
+import weft.pass.neural_btf;
+
+using namespace weft;
+namespace to = weft::tradeoff;
+using json = nlohmann::json;
+
+namespace {
+
+const to::Study& study(std::string_view name) {
+  auto s = to::find_study(name);
+  REQUIRE_MESSAGE(s, (s ? "" : s.error().what()));
+  return **s;
+}
+
+// A scene with one material of each feature's type (and a standard one that must not change).
+scene::Scene scene_with_every_material() {
+  scene::Scene s;
+  auto add = [&](std::string name, scene::MaterialType type, json params) {
+    scene::Material m;
+    m.name = std::move(name);
+    m.type = type;
+    m.params = std::move(params);
+    m.json_path = "$.materials." + m.name;
+    s.materials.push_back(std::move(m));
+  };
+  add("plain", scene::MaterialType::Standard, json::object());
+  add("fur", scene::MaterialType::Fur, {{"photo", "fur.png"}, {"layers", 15}});
+  add("skin", scene::MaterialType::Skin, {{"lut", {{"size", 128}, {"range", "penner"}}}});
+  add("ssdf", scene::MaterialType::Ssdf, {{"albedo", {0.5, 0.5, 0.5}}, {"lobes", 4}});
+  add("btf", scene::MaterialType::NeuralBtf, {{"model", "cloth.wbtf"}, {"filter", "nearest"}});
+  // The parsers check that files exist (not what is in them).
+  const auto dir = std::filesystem::temp_directory_path() / "weft_test_tradeoff";
+  std::filesystem::create_directories(dir);
+  for (const char* name : {"cloth.wbtf", "fur.png"}) std::ofstream(dir / name) << "x";
+  for (auto& m : s.materials) m.base_dir = dir;
+  return s;
+}
+
+// Does the feature's own parser accept the material as the setting left it?
+Result<void> parses(const scene::Material& m) {
+  switch (m.type) {
+    case scene::MaterialType::Skin: {
+      auto r = skin::parse_skin_material(m);
+      if (!r) return std::unexpected(r.error());
+      return {};
+    }
+    case scene::MaterialType::Ssdf: {
+      auto r = ssdf::parse_ssdf_material(m);
+      if (!r) return std::unexpected(r.error());
+      return {};
+    }
+    case scene::MaterialType::NeuralBtf: {
+      auto r = btf::parse_neural_btf_material(m);
+      if (!r) return std::unexpected(r.error());
+      return {};
+    }
+    default: return {};
+  }
+}
+
+image::Image8 flat(std::uint32_t w, std::uint32_t h, std::uint8_t v) {
+  image::Image8 img = image::Image8::filled(w, h, 4, v);
+  for (std::size_t i = 3; i < img.pixels.size(); i += 4) img.pixels[i] = 255;
+  return img;
+}
+
+double srgb_to_linear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
+
+}  // namespace
+
+TEST_CASE("the catalogue has all four features; knobs and references are valid values of their knobs") {
+  std::set<std::string> names;
+  for (const auto& s : to::studies()) names.insert(s.feature);
+  CHECK(names == std::set<std::string>{"fur", "skin", "ssdf", "btf"});
+  for (const auto& s : to::studies()) {
+    CAPTURE(s.feature);
+    CHECK_FALSE(s.knobs.empty());
+    CHECK_FALSE(s.passes.empty());
+    CHECK(s.reference.is_reference);
+    for (const auto& k : s.knobs) {
+      CAPTURE(k.name);
+      CHECK_FALSE(k.sweep.empty());
+      CHECK_FALSE(k.meaning.empty());
+      for (const auto& v : k.sweep) CHECK_MESSAGE(to::check_knob_value(k, v), v.dump());
+    }
+    for (const auto& [name, value] : s.reference.values.items())
+      if (auto k = to::find_knob(s, name)) CHECK_MESSAGE(to::check_knob_value(**k, value), name, "=", value.dump());
+    const bool has_presets = s.preset_values != nullptr;
+    REQUIRE(has_presets);
+    for (Quality q : {Quality::Low, Quality::Medium, Quality::High, Quality::Reference}) CHECK(s.preset_values(q).is_object());
+  }
+  // The presets the study measures are the ones the passes use.
+  CHECK(study("fur").preset_values(Quality::High).at("layers") == passes::fur_layers_for(Quality::High));
+  CHECK(study("skin").preset_values(Quality::Low).at("lut.size") == skin::skin_quality_preset(Quality::Low).lut_size);
+  CHECK(study("ssdf").preset_values(Quality::Low).at("lobes") == ssdf::ssdf_quality_preset(Quality::Low).lobes);
+  CHECK(study("btf").preset_values(Quality::High).at("filter") == "bilinear");
+  CHECK(study("btf").preset_values(Quality::Low).at("ambient") == false);
+
+  auto unknown = to::find_study("hair");
+  REQUIRE_FALSE(unknown);
+  CHECK(unknown.error().message.find("'hair'") != std::string::npos);
+  CHECK(unknown.error().message.find("fur, skin, ssdf, btf") != std::string::npos);
+}
+
+TEST_CASE("knob values from the command line: types, ranges, choices; errors name the knob and the value") {
+  const auto& fur = study("fur");
+  auto v = to::parse_knob_values(fur, "layers=1, 2,256");
+  REQUIRE(v);
+  CHECK(v->knob->name == "layers");
+  CHECK(v->values == std::vector<json>{1, 2, 256});
+  auto bad = to::parse_knob_values(fur, "layers=0");
+  REQUIRE_FALSE(bad);
+  CHECK(bad.error().message.find("layers") != std::string::npos);
+  CHECK(bad.error().message.find("'0'") != std::string::npos);
+  CHECK_FALSE(to::parse_knob_values(fur, "layers=2.5"));
+  CHECK_FALSE(to::parse_knob_values(fur, "layers="));
+  auto no_eq = to::parse_knob_values(fur, "layers");
+  REQUIRE_FALSE(no_eq);
+  CHECK(no_eq.error().message.find("KNOB=V1,V2") != std::string::npos);
+  auto no_knob = to::parse_knob_values(fur, "hairs=3");
+  REQUIRE_FALSE(no_knob);
+  CHECK(no_knob.error().message.find("'hairs'") != std::string::npos);
+  CHECK(no_knob.error().message.find("layers") != std::string::npos);  // lists the knobs there are
+  auto fins = to::parse_knob_values(fur, "fins=on,false");
+  REQUIRE(fins);
+  CHECK(fins->values == std::vector<json>{true, false});
+  CHECK_FALSE(to::parse_knob_values(fur, "fins=maybe"));
+  CHECK_FALSE(to::parse_knob_values(fur, "fin_threshold=nan"));
+  CHECK_FALSE(to::parse_knob_values(fur, "fin_threshold=1.5"));
+  const auto& skin = study("skin");
+  CHECK(to::parse_knob_values(skin, "lut.range=full,adaptive"));
+  auto choice = to::parse_knob_values(skin, "lut.range=wide");
+  REQUIRE_FALSE(choice);
+  CHECK(choice.error().message.find("penner") != std::string::npos);  // names the choices
+}
+
+TEST_CASE("the sweep plan: the reference first, every preset, each knob's sweep, grids crossed, no duplicates") {
+  for (const auto& s : to::studies()) {
+    CAPTURE(s.feature);
+    const auto plan = to::plan_sweep(s);
+    REQUIRE_FALSE(plan.empty());
+    CHECK(plan.front().is_reference);
+    CHECK(std::count_if(plan.begin(), plan.end(), [](const to::Setting& x) { return x.is_reference; }) == 1);
+    CHECK(std::count_if(plan.begin(), plan.end(), [](const to::Setting& x) { return x.group == "preset"; }) >= 1);
+    std::set<std::string> keys;
+    for (const auto& x : plan) {
+      CHECK(keys.insert(std::to_string(int(x.quality)) + x.values.dump()).second);  // no setting twice
+      CHECK(x.strip_knobs);
+    }
+    // Every sweep value of every knob appears in some setting.
+    for (const auto& k : s.knobs)
+      for (const auto& v : k.sweep)
+        CHECK_MESSAGE(std::any_of(plan.begin(), plan.end(),
+                                  [&](const to::Setting& x) { return x.values.contains(k.name) && x.values[k.name] == v; }),
+                      k.name, "=", v.dump());
+    // A grid holds every pair.
+    for (const auto& [a, b] : s.grids) {
+      auto ka = to::find_knob(s, a), kb = to::find_knob(s, b);
+      REQUIRE(ka);
+      REQUIRE(kb);
+      for (const auto& va : (*ka)->sweep)
+        for (const auto& vb : (*kb)->sweep)
+          CHECK(std::any_of(plan.begin(), plan.end(), [&](const to::Setting& x) {
+            return x.values.size() == 2 && x.values.value(a, json()) == va && x.values.value(b, json()) == vb;
+          }));
+    }
+  }
+  // --values replaces one knob's sweep only.
+  const auto& fur = study("fur");
+  auto layers = to::parse_knob_values(fur, "layers=3,5");
+  REQUIRE(layers);
+  const auto plan = to::plan_sweep(fur, std::span<const to::KnobValues>(&*layers, 1));
+  CHECK(std::none_of(plan.begin(), plan.end(), [](const to::Setting& x) { return x.group != "preset" && !x.is_reference && x.values.value("layers", 0) == 128; }));
+  CHECK(std::any_of(plan.begin(), plan.end(), [](const to::Setting& x) { return x.values.value("layers", 0) == 5; }));
+}
+
+TEST_CASE("extremes: each knob's minimum and maximum (every choice, both booleans) on top of a base") {
+  for (const auto& s : to::studies()) {
+    CAPTURE(s.feature);
+    const auto ext = to::extreme_settings(s, {{"base_only", 1}});
+    CHECK(ext.front().is_reference);
+    std::size_t expected = 1;
+    for (const auto& k : s.knobs) expected += k.kind == to::KnobKind::Choice ? k.choices.size() : 2;
+    CHECK(ext.size() == expected);
+    for (const auto& k : s.knobs) {
+      if (k.kind != to::KnobKind::Integer) continue;
+      for (double bound : {k.min, k.max})
+        CHECK(std::any_of(ext.begin(), ext.end(), [&](const to::Setting& x) {
+          return x.values.contains(k.name) && x.values[k.name] == std::int64_t(bound) && x.values.value("base_only", 0) == 1;
+        }));
+    }
+  }
+}
+
+TEST_CASE("a setting is written into every material of the feature's type, which its parser then accepts") {
+  for (const auto& s : to::studies()) {
+    CAPTURE(s.feature);
+    for (const auto& setting : to::extreme_settings(s)) {
+      CAPTURE(setting.label);
+      scene::Scene scene = scene_with_every_material();
+      REQUIRE(to::apply_setting(scene, s, setting));
+      for (const auto& m : scene.materials) {
+        if (m.type == scene::MaterialType::Standard) {
+          CHECK(m.params == json::object());
+          continue;
+        }
+        if (m.type != s.material) continue;
+        for (const auto& [name, value] : setting.values.items()) {
+          // "lut.size" -> params["lut"]["size"]
+          const json* node = &m.params;
+          std::string rest = name;
+          for (std::size_t dot; (dot = rest.find('.')) != std::string::npos; rest = rest.substr(dot + 1))
+            node = &node->at(rest.substr(0, dot));
+          CHECK(node->at(rest) == value);
+        }
+        auto ok = parses(m);
+        CHECK_MESSAGE(ok, (ok ? "" : ok.error().what()));
+      }
+    }
+  }
+  // Stripping removes a knob the scene set that the setting does not.
+  scene::Scene scene = scene_with_every_material();
+  const auto& skin = study("skin");
+  REQUIRE(to::apply_setting(scene, skin, {.label = "x", .values = {{"lut.samples", 8}}, .strip_knobs = true}));
+  const auto& params = scene.materials[2].params;
+  CHECK_FALSE(params.at("lut").contains("size"));
+  CHECK(params.at("lut").at("samples") == 8);
+  // A scene without the material is an error naming the type.
+  scene::Scene none;
+  auto missing = to::apply_setting(none, study("ssdf"), {.label = "x"});
+  REQUIRE_FALSE(missing);
+  CHECK(missing.error().message.find("'ssdf'") != std::string::npos);
+}
+
+TEST_CASE("masked error metrics against analytic values") {
+  const image::Image8 ref = flat(16, 16, 128);
+  image::Image8 img = ref;
+  // Two pixels differ by a known amount; the mask covers the top half.
+  to::Mask mask = to::full_mask(16, 16);
+  for (std::size_t p = 128; p < 256; ++p) mask.covered[p] = 0;
+  CHECK(mask.count() == 128);
+  auto same = to::compare(img, ref, mask);
+  REQUIRE_MESSAGE(same, (same ? "" : same.error().what()));
+  CHECK(same->rmse == 0.0);
+  CHECK(std::isinf(same->psnr_db));
+  CHECK(same->pixels == 128);
+  for (int c = 0; c < 3; ++c) img.pixels[std::size_t(3 * 4 + c)] = 200;   // pixel 3, inside the mask
+  for (int c = 0; c < 3; ++c) img.pixels[std::size_t(200 * 4 + c)] = 255;  // pixel 200, outside
+  auto e = to::compare(img, ref, mask);
+  REQUIRE(e);
+  const double d = srgb_to_linear(200.0 / 255.0) - srgb_to_linear(128.0 / 255.0);
+  CHECK(e->rmse == doctest::Approx(std::sqrt(d * d / 128.0)).epsilon(1e-6));
+  CHECK(e->max_diff == doctest::Approx(d).epsilon(1e-6));
+  CHECK(e->psnr_db == doctest::Approx(-20.0 * std::log10(e->rmse)).epsilon(1e-9));
+  CHECK(e->ssim < 1.0);
+  // Coverage: where the two flat renders differ, or where a setting changed a pixel.
+  image::Image8 a = flat(16, 16, 0), b = flat(16, 16, 0);
+  b.pixels[0] = 255;
+  const image::Image8* renders[] = {&img};
+  auto m = to::coverage_mask(a, b, renders, ref);
+  REQUIRE(m);
+  CHECK(m->count() == 3);  // pixel 0 (coverage), pixels 3 and 200 (changed)
+  CHECK(m->covered[0] == 1);
+  CHECK(m->covered[3] == 1);
+  CHECK(m->covered[200] == 1);
+  // Sizes that differ are an error, not a read past the end.
+  const image::Image8 small = flat(4, 4, 0);
+  CHECK_FALSE(to::compare(small, ref, mask));
+  CHECK_FALSE(to::coverage_mask(small, b, renders, ref));
+}
+
+TEST_CASE("the Pareto front equals brute force on random points, ties and duplicates included") {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<to::Point> pts(std::size_t(1 + rng() % 12));
+    for (auto& p : pts) p = {double(rng() % 6), double(rng() % 6)};  // small ranges: many ties
+    const auto front = to::pareto_front(pts);
+    std::vector<std::size_t> brute;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      bool dominated = false;
+      for (std::size_t j = 0; j < pts.size(); ++j)
+        dominated |= pts[j].cost <= pts[i].cost && pts[j].error <= pts[i].error &&
+                     (pts[j].cost < pts[i].cost || pts[j].error < pts[i].error);
+      if (!dominated) brute.push_back(i);
+    }
+    std::vector<std::size_t> sorted = front;
+    std::sort(sorted.begin(), sorted.end());
+    CHECK(sorted == brute);
+    for (std::size_t i = 1; i < front.size(); ++i) CHECK(pts[front[i - 1]].cost <= pts[front[i]].cost);
+  }
+  CHECK(to::pareto_front({}).empty());
+}
+
+TEST_CASE("reports: CSV quoting, markdown rows, SVG escaping") {
+  CHECK(to::csv_field("plain") == "plain");
+  CHECK(to::csv_field("a,b") == "\"a,b\"");
+  CHECK(to::csv_field("say \"hi\"") == "\"say \"\"hi\"\"\"");
+  CHECK(to::csv_field("two\nlines") == "\"two\nlines\"");
+  CHECK(to::xml_escape("<a & 'b'>\"") == "&lt;a &amp; &apos;b&apos;&gt;&quot;");
+  std::vector<to::Row> rows(3);
+  rows[0].setting = {.label = "reference", .group = "reference", .is_reference = true};
+  rows[0].frame_ms = 10.0;
+  rows[1].setting = {.label = "layers=8 <&>", .group = "layers"};
+  rows[1].frame_ms = 2.0;
+  rows[1].error.rmse = 0.05;
+  rows[2].setting = {.label = "fins=true, <x>", .group = "fins"};
+  rows[2].frame_ms = 3.0;
+  rows[2].error.rmse = 0.08;  // dominated by layers=8
+  to::mark_pareto(rows, to::CostAxis::Frame);
+  CHECK(rows[0].pareto);
+  CHECK(rows[1].pareto);
+  CHECK_FALSE(rows[2].pareto);
+  to::ReportInfo info{.feature = "fur", .scene = "s.json", .command = "weft tradeoff s.json --feature fur", .device = "llvmpipe"};
+  const std::string c = to::csv(rows, info);
+  CHECK(c.find("\"fins=true, <x>\"") != std::string::npos);
+  CHECK(std::count(c.begin(), c.end(), '\n') >= 4);  // a header and three rows
+  const std::string md = to::markdown(rows, info);
+  CHECK(md.find("layers=8") != std::string::npos);
+  CHECK(md.find("weft tradeoff s.json --feature fur") != std::string::npos);
+  const std::string svg = to::svg(rows, info);
+  CHECK(svg.find("<svg") != std::string::npos);
+  CHECK(svg.find("</svg>") != std::string::npos);
+  CHECK(svg.find("layers=8 &lt;&amp;&gt;") != std::string::npos);  // the front is labelled, escaped
+  CHECK(svg.find("<&>") == std::string::npos);
+}

@@ -1,0 +1,258 @@
+// `weft tradeoff SCENE --feature F [--out DIR] [--frames N] [--size WxH] [--values KNOB=V1,V2]`:
+// renders every setting weft.tradeoff plans for the feature (its presets, its knobs one at a
+// time, its grids, its reference), each in a fresh renderer so the first frame bakes cold,
+// then N more frames for the steady frame time; measures error against the reference over
+// the feature's pixels and writes DIR/tradeoff.csv, DIR/tradeoff.svg and DIR/tradeoff.md.
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <cstdio>
+#include <cstdlib>
+#include <expected>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+#include "commands.h"
+import weft.core;
+import weft.gpu;
+import weft.image;
+import weft.scene;
+import weft.renderer;
+import weft.tradeoff;
+
+namespace weft::cli {
+
+namespace {
+namespace to = weft::tradeoff;
+
+struct Args {
+  std::string scene_path, feature, out, size;
+  unsigned frames = 5;
+  float exposure = 1.0f;
+  std::vector<std::string> values;
+  bool list = false;
+};
+
+int failed(const Error& e) {
+  std::fprintf(stderr, "weft tradeoff: %s\n", e.what().c_str());
+  return 1;
+}
+
+// CPU time of the whole process (every thread, llvmpipe's rasteriser included): on lavapipe
+// the work a frame does, which other processes' load does not inflate as it does wall time.
+double process_cpu_ms() {
+  timespec t{};
+  ::clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) * 1e3 + double(t.tv_nsec) / 1e6;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+struct Rendered {
+  to::Row row;
+  image::Image8 image;
+};
+
+// One setting: a fresh renderer (the study's process-wide caches dropped too), the cold
+// first frame timed on the wall clock, then `frames` steady frames for the GPU medians.
+Result<Rendered> render_setting(gpu::Device& device, const scene::Scene& base, const to::Study& study,
+                                const to::Setting& setting, const renderer::RenderOptions& defaults, unsigned frames,
+                                bool cpu_adapter) {
+  scene::Scene scene = base;
+  if (auto ok = to::apply_setting(scene, study, setting); !ok) return std::unexpected(ok.error());
+  renderer::RenderOptions options = defaults;
+  options.quality = setting.quality;
+  if (study.clear_caches) study.clear_caches();
+  auto r = renderer::Renderer::create(device);
+  if (!r) return std::unexpected(r.error());
+  const auto t0 = std::chrono::steady_clock::now();
+  auto first = r->render(scene, options);
+  if (!first) return with_context(weft::format("setting '{}'", setting.label), first.error());
+  Rendered out;
+  out.row.setting = setting;
+  out.row.cold_frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  std::vector<double> gpu, cpu, feature, process;
+  for (unsigned i = 0; i < frames; ++i) {
+    const double c0 = process_cpu_ms();
+    auto f = r->render(scene, options);
+    if (!f) return with_context(weft::format("setting '{}'", setting.label), f.error());
+    process.push_back(process_cpu_ms() - c0);
+    gpu.push_back(f->stats.gpu_total_ms);
+    cpu.push_back(f->stats.cpu_frame_ms);
+    double ms = 0.0;
+    for (const auto& p : f->stats.passes)
+      if (std::find(study.passes.begin(), study.passes.end(), p.name) != study.passes.end()) ms += p.gpu_ms;
+    feature.push_back(ms);
+    if (i + 1 == frames) out.image = std::move(f->image);
+  }
+  if (frames == 0) out.image = std::move(first->image);
+  out.row.gpu_ms = median(gpu);
+  out.row.wall_ms = median(cpu);
+  out.row.feature_gpu_ms = median(feature);
+  out.row.process_cpu_ms = median(process);
+  out.row.frame_ms = cpu_adapter ? out.row.process_cpu_ms : out.row.gpu_ms;
+  for (const auto& w : first->warnings) log::warn(weft::format("{}: {}", setting.label, w));
+  return out;
+}
+
+// The feature's objects drawn as flat black or as white (emissive), in place of its material.
+Result<image::Image8> coverage_render(gpu::Device& device, const scene::Scene& base, const to::Study& study,
+                                      const renderer::RenderOptions& options, bool white) {
+  scene::Scene scene = base;
+  for (auto& m : scene.materials) {
+    if (m.type != study.material) continue;
+    m.type = scene::MaterialType::Standard;
+    m.standard = {};
+    m.standard.base_color = vec3(0.0f);
+    m.standard.emissive = vec3(white ? 1e4f : 0.0f);
+  }
+  auto r = renderer::Renderer::create(device);
+  if (!r) return std::unexpected(r.error());
+  auto f = r->render(scene, options);
+  if (!f) return with_context("the coverage frame", f.error());
+  return std::move(f->image);
+}
+
+void print_list() {
+  for (const auto& s : to::studies()) {
+    std::printf("%s (material \"%s\", cost: %s)\n  reference: %s\n", s.feature.c_str(),
+                std::string(scene::to_string(s.material)).c_str(), std::string(to::to_string(s.cost)).c_str(),
+                s.reference_why.c_str());
+    for (const auto& k : s.knobs) {
+      std::string sweep;
+      for (const auto& v : k.sweep) sweep += (sweep.empty() ? "" : ",") + to::value_text(v);
+      std::printf("  %-16s %s; sweep %s\n", k.name.c_str(), k.meaning.c_str(), sweep.c_str());
+    }
+  }
+}
+
+int run(const Args& a) {
+  if (a.list) {
+    print_list();
+    return 0;
+  }
+  if (a.scene_path.empty()) return failed({ErrorKind::InvalidArgument, "a scene file is required"});
+  if (a.feature.empty()) return failed({ErrorKind::InvalidArgument, "--feature is required (see --list)"});
+  auto study = to::find_study(a.feature);
+  if (!study) return failed(study.error());
+  std::vector<to::KnobValues> overrides;
+  for (const auto& text : a.values) {
+    auto v = to::parse_knob_values(**study, text);
+    if (!v) return failed(with_context("--values", v.error()).error());
+    overrides.push_back(std::move(*v));
+  }
+  renderer::RenderOptions options;
+  options.aces = false;  // clamp: decoded pixels are linear radiance (times the exposure) below 1
+  options.exposure = a.exposure;
+  if (!a.size.empty()) {
+    unsigned w = 0, h = 0;
+    char extra = 0;
+    if (std::sscanf(a.size.c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0)
+      return failed({ErrorKind::InvalidArgument, weft::format("--size expects WxH (e.g. 640x360), got '{}'", a.size)});
+    options.width = w, options.height = h;
+  }
+  auto scene = scene::load_scene(a.scene_path);
+  if (!scene) return failed(scene.error());
+  if (!to::scene_uses(*scene, (*study)->material))
+    return failed({ErrorKind::InvalidArgument,
+                   weft::format("'{}' has no \"{}\" material: nothing for the {} study to sweep", a.scene_path,
+                                scene::to_string((*study)->material), (*study)->feature)});
+  const std::filesystem::path out = a.out.empty() ? "tradeoff-" + (*study)->feature : a.out;
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) return failed({ErrorKind::Io, weft::format("cannot create '{}': {}", out.string(), ec.message())});
+  for (const auto& [name, value] : (*study)->environment) ::setenv(name.c_str(), value.c_str(), 1);
+
+  auto instance = gpu::Instance::create({.application_name = "weft-tradeoff"});
+  if (!instance) return failed(instance.error());
+  auto adapter = instance->request_adapter();
+  if (!adapter) return failed(adapter.error());
+  auto device = adapter->request_device();
+  if (!device) return failed(device.error());
+
+  // On a CPU adapter (lavapipe) the frame's work is CPU time on every core, and GPU timestamps
+  // are wall time that other processes' load inflates: the process CPU time is the cost.
+  const bool cpu_adapter = adapter->info().type == gpu::AdapterType::Cpu;
+  const auto plan = to::plan_sweep(**study, overrides);
+  std::vector<Rendered> rendered;
+  const auto start = std::chrono::steady_clock::now();
+  for (std::size_t i = 0; i < plan.size(); ++i) {
+    auto r = render_setting(*device, *scene, **study, plan[i], options, a.frames, cpu_adapter);
+    if (!r) return failed(r.error());
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double eta = elapsed / double(i + 1) * double(plan.size() - i - 1);
+    log::info(weft::format("[{}/{} {:.0f}%] {}: frame {:.1f} ms GPU, {:.1f} ms process CPU, cold {:.0f} ms (ETA {:.0f} s)",
+                           i + 1, plan.size(), 100.0 * double(i + 1) / double(plan.size()), plan[i].label,
+                           r->row.frame_ms, r->row.process_cpu_ms, r->row.cold_frame_ms, eta));
+    rendered.push_back(std::move(*r));
+  }
+  const image::Image8& reference = rendered.front().image;  // plan_sweep puts the reference first
+  auto black = coverage_render(*device, *scene, **study, options, false);
+  if (!black) return failed(black.error());
+  auto white = coverage_render(*device, *scene, **study, options, true);
+  if (!white) return failed(white.error());
+  std::vector<const image::Image8*> images;
+  for (const auto& r : rendered) images.push_back(&r.image);
+  auto mask = to::coverage_mask(*black, *white, images, reference);
+  if (!mask) return failed(mask.error());
+  if (mask->count() == 0)
+    return failed({ErrorKind::InvalidArgument,
+                   weft::format("the {} objects cover no pixel of '{}' from its camera", (*study)->feature, a.scene_path)});
+  std::vector<to::Row> rows;
+  for (auto& r : rendered) {
+    auto e = to::compare(r.image, reference, *mask);
+    if (!e) return failed(e.error());
+    r.row.error = *e;
+    rows.push_back(r.row);
+  }
+  to::mark_pareto(rows, (*study)->cost);
+
+  to::ReportInfo info;
+  info.feature = (*study)->feature;
+  info.scene = std::filesystem::path(a.scene_path).filename().string();
+  info.width = reference.width, info.height = reference.height, info.frames = a.frames;
+  info.cost = (*study)->cost;
+  info.frame_clock = cpu_adapter ? "process CPU time" : "GPU timestamps";
+  info.device = weft::format("{} ({})", adapter->info().name, adapter->info().driver);
+  info.command = weft::format("weft tradeoff {} --feature {} --frames {}{}{}", a.scene_path, a.feature, a.frames,
+                              a.size.empty() ? "" : " --size " + a.size,
+                              a.exposure != 1.0f ? weft::format(" --exposure {}", a.exposure) : "");
+  for (const auto& v : a.values) info.command += " --values " + v;
+  info.mask_note = weft::format("{} of {} pixels (the feature's objects, and every pixel any setting changes)",
+                                mask->count(), std::size_t(reference.width) * reference.height);
+  const std::pair<const char*, std::string> files[] = {{"tradeoff.csv", to::csv(rows, info)},
+                                                       {"tradeoff.md", to::markdown(rows, info)},
+                                                       {"tradeoff.svg", to::svg(rows, info)}};
+  for (const auto& [name, text] : files) {
+    std::ofstream f(out / name, std::ios::binary);
+    f << text;
+    if (!f) return failed({ErrorKind::Io, weft::format("cannot write '{}'", (out / name).string())});
+  }
+  if (auto ok = image::save_png(out / "reference.png", reference); !ok) return failed(ok.error());
+  std::printf("%s\nwrote %s/tradeoff.{csv,md,svg} and reference.png (%zu settings)\n", to::markdown(rows, info).c_str(),
+              out.string().c_str(), rows.size());
+  return 0;
+}
+}  // namespace
+
+Command add_tradeoff(CLI::App& app) {
+  auto* sub = app.add_subcommand("tradeoff", "Sweep a feature's quality knobs: error against frame time, Pareto front");
+  auto a = std::make_shared<Args>();
+  sub->add_option("scene", a->scene_path, "Scene file using the feature's material");
+  sub->add_option("-f,--feature", a->feature, "fur | skin | ssdf | btf (see --list)");
+  sub->add_option("-o,--out", a->out, "Output folder (default: tradeoff-FEATURE)");
+  sub->add_option("--frames", a->frames, "Steady frames per setting (median)")->check(CLI::Range(1u, 1000u))->capture_default_str();
+  sub->add_option("-s,--size", a->size, "Frame size WxH (default: the scene's)");
+  sub->add_option("--exposure", a->exposure, "Exposure before the clamp (keep the feature below 1)")->capture_default_str();
+  sub->add_option("--values", a->values, "Replace a knob's sweep: KNOB=V1,V2,... (repeatable)");
+  sub->add_flag("--list", a->list, "Print each feature's knobs and reference, and exit");
+  return [a] { return run(*a); };
+}
+
+}  // namespace weft::cli
