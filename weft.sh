@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # weft's two front doors, for a fresh Debian 12 machine (as root) or a developer's:
-#   ./weft.sh demo [args...]   install what is missing, build, render examples/scenes/default.json to out/demo.png
+#   ./weft.sh demo [args...]   install what is missing, build, render examples/scenes/showcase.json to out/demo.png
 #                              (extra args go to `weft render`, e.g. --size 640x360 --quality high)
 #   ./weft.sh test [--asan]    install what is missing, build, run every test suite (ctest)
 #   ./weft.sh build [--asan]   install what is missing and build only
@@ -36,7 +36,7 @@ case "$command_name" in
     for arg in "$@"; do [ "$arg" != "--asan" ] && args+=("$arg"); done
     bin=build/bin
     [ "$preset" = asan ] && bin=build/asan/bin
-    "$bin/weft" render examples/scenes/default.json -o out/demo.png --profile "${args[@]+"${args[@]}"}"
+    "$bin/weft" render examples/scenes/showcase.json -o out/demo.png --profile "${args[@]+"${args[@]}"}"
     echo "demo: wrote $(pwd)/out/demo.png"
     ;;
   test)

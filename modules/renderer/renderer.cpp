@@ -13,6 +13,7 @@ module;
 #include <variant>
 #include <vector>
 #include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/packing.hpp>
 module weft.renderer;
 import weft.core;
 import weft.gpu;
@@ -54,6 +55,7 @@ struct Renderer::State {
   std::optional<gpu::Texture> no_shadow;  // 1x1 depth 1.0 when the scene has no key light
   std::optional<gpu::Buffer> uniforms;
   std::optional<gpu::Texture> output;
+  std::optional<gpu::Buffer> hdr_readback;  // RenderOptions::read_hdr: the scene colour, RGBA16F
 
   // Features, created the first time a scene uses their material type.
   std::map<scene::MaterialType, std::unique_ptr<FeaturePass>> features;
@@ -263,6 +265,14 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
     if (!t) return std::unexpected(t.error());
     output.emplace(std::move(*t));
   }
+  const std::uint64_t hdr_bytes = std::uint64_t(w) * h * 8;  // RGBA16F
+  if (options.read_hdr && (!hdr_readback || hdr_readback->size() != hdr_bytes)) {
+    hdr_readback.reset();
+    auto b = device->create_buffer(
+        {.label = "hdr_readback", .size = hdr_bytes, .usage = gpu::BufferUsage::CopyDst | gpu::BufferUsage::MapRead});
+    if (!b) return std::unexpected(b.error());
+    hdr_readback.emplace(std::move(*b));
+  }
   return {};
 }
 
@@ -284,6 +294,25 @@ Result<std::pair<RenderGraph, TextureHandle>> Renderer::State::build_graph(const
       return with_context(weft::format("feature '{}'", feature->name()), ok.error());
   }
   if (auto ok = background->add(graph); !ok) return std::unexpected(ok.error());
+  if (options.read_hdr) {
+    auto color = board.get<TextureHandle>("scene_color");
+    if (!color) return std::unexpected(color.error());
+    struct HdrCopy {
+      TextureHandle color;
+      BufferHandle readback;
+    };
+    const BufferHandle target = graph.import_buffer("hdr_readback", &*hdr_readback, gpu::Access::Undefined);
+    auto& copy = graph.add_pass<HdrCopy>(
+        "hdr_readback",
+        [&](PassBuilder& b, HdrCopy& d) {
+          d.color = b.read(*color, TextureUse::CopySrc);
+          d.readback = b.write(target, BufferUse::CopyDst);
+        },
+        [](const PassResources& res, const HdrCopy& d, PassContext& ctx) {
+          ctx.encoder().copy_texture_to_buffer(res.texture(d.color), res.buffer(d.readback), 0);
+        });
+    graph.mark_output(copy.readback, gpu::Access::HostRead);
+  }
   auto out = tonemap->add(graph, graph.import_texture("output", &*output, gpu::Access::Undefined),
                           {.exposure = options.exposure,
                            .tone_operator = options.aces ? passes::ToneOperator::Aces : passes::ToneOperator::Clamp});
@@ -359,6 +388,13 @@ Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& o
   Frame frame;
   frame.image = image::Image8::filled(w, h, 4);
   std::memcpy(frame.image.pixels.data(), pixels->data(), frame.image.pixels.size());
+  if (options.read_hdr) {
+    auto bytes = s.device->queue().read_buffer(*s.hdr_readback);
+    if (!bytes) return std::unexpected(bytes.error());
+    frame.hdr = image::Image::filled(w, h, 4);
+    const auto* halves = reinterpret_cast<const std::uint16_t*>(bytes->data());
+    for (std::size_t i = 0; i < frame.hdr.pixels.size(); ++i) frame.hdr.pixels[i] = glm::unpackHalf1x16(halves[i]);
+  }
   frame.stats = std::move(*stats);
   for (auto index : compiled->order()) frame.passes.emplace_back(compiled->passes()[index].name);
   frame.warnings = s.warnings;

@@ -27,10 +27,14 @@ struct RenderOptions {
   float exposure = 1.0f;
   bool aces = true;          // ACES tone curve; false: plain clamp (for analytic checks)
   bool timestamps = true;
+  // Also read back the scene colour before tone mapping into Frame::hdr (linear RGBA float):
+  // what stability tests inspect, since NaN and infinity do not survive the 8-bit output.
+  bool read_hdr = false;
 };
 
 struct Frame {
   image::Image8 image;        // RGBA, sRGB-encoded
+  image::Image hdr;           // RGBA linear scene colour before the tone curve (RenderOptions::read_hdr)
   FrameStats stats;           // per-pass GPU and CPU times, transient memory
   std::vector<std::string> passes;  // the passes that ran, in order
   std::vector<std::string> warnings;
