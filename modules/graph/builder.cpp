@@ -19,13 +19,12 @@ import weft.gpu;
 namespace weft::detail {
 
 void* Arena::allocate(std::size_t size, std::size_t alignment) {
-  auto aligned_cursor = [&]() -> std::byte* {
-    const auto address = reinterpret_cast<std::uintptr_t>(cursor_);
-    const std::uintptr_t aligned = (address + alignment - 1) & ~(std::uintptr_t(alignment) - 1);
-    return reinterpret_cast<std::byte*>(aligned);
+  auto aligned = [&](std::byte* at) {
+    const auto address = reinterpret_cast<std::uintptr_t>(at);
+    return reinterpret_cast<std::byte*>((address + alignment - 1) & ~(std::uintptr_t(alignment) - 1));
   };
   if (cursor_ != nullptr) {
-    std::byte* p = aligned_cursor();
+    std::byte* p = aligned(cursor_);
     const std::size_t padding = std::size_t(p - cursor_);
     if (padding + size <= left_) {
       left_ -= padding + size;
@@ -33,14 +32,24 @@ void* Arena::allocate(std::size_t size, std::size_t alignment) {
       return p;
     }
   }
-  const std::size_t block_size = std::max<std::size_t>(16 * 1024, size + alignment);
-  blocks_.push_back(std::make_unique_for_overwrite<std::byte[]>(block_size));
-  cursor_ = blocks_.back().get();
-  left_ = block_size;
-  std::byte* p = aligned_cursor();
-  left_ -= std::size_t(p - cursor_) + size;
+  // The next block a reset() kept, if it is large enough; otherwise a new one in its place.
+  const std::size_t next = cursor_ == nullptr ? 0 : block_ + 1;
+  if (next == blocks_.size() || blocks_[next].size < size + alignment) {
+    const std::size_t block_size = std::max<std::size_t>(16 * 1024, size + alignment);
+    blocks_.insert(blocks_.begin() + std::ptrdiff_t(next),
+                   Block{std::make_unique_for_overwrite<std::byte[]>(block_size), block_size});
+  }
+  block_ = next;
+  std::byte* p = aligned(blocks_[next].bytes.get());
+  left_ = blocks_[next].size - std::size_t(p - blocks_[next].bytes.get()) - size;
   cursor_ = p + size;
   return p;
+}
+
+void Arena::reset() {
+  block_ = 0;
+  cursor_ = blocks_.empty() ? nullptr : blocks_[0].bytes.get();
+  left_ = blocks_.empty() ? 0 : blocks_[0].size;
 }
 
 std::string_view Arena::copy(std::string_view text) {
@@ -61,6 +70,20 @@ GraphData::GraphData(std::string_view graph_name) : name(graph_name) {
 GraphData::~GraphData() {
   for (PassNode& pass : passes)
     if (pass.execute.destroy) pass.execute.destroy(pass.execute.callable, pass.execute.data);
+}
+
+void GraphData::clear() {
+  for (PassNode& pass : passes)
+    if (pass.execute.destroy) pass.execute.destroy(pass.execute.callable, pass.execute.data);
+  passes.clear();
+  resources.clear();
+  versions.clear();
+  accesses.clear();
+  outputs.clear();
+  declaration_errors.clear();
+  blackboard.entries_.clear();
+  current_pass = invalid_index;
+  arena.reset();
 }
 
 std::string GraphData::describe(std::uint32_t resource) const {
@@ -400,6 +423,17 @@ RenderGraph::RenderGraph(std::string_view name) : data_(std::make_shared<GraphDa
 RenderGraph::RenderGraph(RenderGraph&&) noexcept = default;
 RenderGraph& RenderGraph::operator=(RenderGraph&&) noexcept = default;
 RenderGraph::~RenderGraph() = default;
+
+void RenderGraph::reset() {
+  // use_count() == 1: no compiled graph refers to these arrays any more.
+  if (data_.use_count() > 1) {
+    if (!spare_ || spare_.use_count() > 1) spare_ = std::make_shared<GraphData>(data_->name);
+    std::swap(data_, spare_);
+  } else if (spare_ && spare_.use_count() == 1) {
+    spare_->clear();  // what its callbacks captured is released once their compiled graph is gone
+  }
+  data_->clear();
+}
 
 TextureHandle RenderGraph::import_texture(std::string_view name, const gpu::Texture* texture,
                                           gpu::Access initial_state) {

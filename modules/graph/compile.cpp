@@ -9,6 +9,7 @@ module;
 #include <expected>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <queue>
 #include <string>
 #include <string_view>
@@ -81,7 +82,9 @@ struct Edge {
 
 class Scheduler {
  public:
-  Scheduler(const GraphData& g, CompiledState& s, std::vector<GraphError>& errors) : g_(g), s_(s), errors_(errors) {}
+  Scheduler(const GraphData& g, CompiledState& s, std::vector<GraphError>& errors)
+      : g_(g), s_(s), errors_(errors), alive_(s.scratch.alive), pass_texture_uses_(s.scratch.pass_texture_uses),
+        pass_buffer_uses_(s.scratch.pass_buffer_uses), resource_uses_(s.scratch.resource_uses) {}
 
   void run() {
     init_resources();
@@ -97,9 +100,10 @@ class Scheduler {
   const GraphData& g_;
   CompiledState& s_;
   std::vector<GraphError>& errors_;
-  std::vector<std::uint8_t> alive_;
-  std::vector<std::uint16_t> pass_texture_uses_, pass_buffer_uses_;
-  std::vector<std::uint16_t> resource_uses_;
+  std::vector<std::uint8_t>& alive_;
+  std::vector<std::uint16_t>& pass_texture_uses_;
+  std::vector<std::uint16_t>& pass_buffer_uses_;
+  std::vector<std::uint16_t>& resource_uses_;
   bool backward_edge_ = false;
 
   void error(GraphErrorKind kind, std::string message, std::vector<std::string> passes,
@@ -112,7 +116,7 @@ class Scheduler {
 
   void init_resources() {
     const std::uint32_t R = s_.resource_count;
-    s_.resources.resize(R);
+    s_.resources.assign(R, ResourceInfo{});
     s_.resource_final_state.assign(R, gpu::Access::Undefined);
     resource_uses_.assign(R, 0);
     const gpu::Extent3D output = s_.options.output_extent;
@@ -214,8 +218,8 @@ class Scheduler {
   void cull() {
     const std::uint32_t P = s_.pass_count;
     alive_.assign(P, 0);
-    std::vector<std::uint32_t> stack;
-    stack.reserve(P);
+    std::vector<std::uint32_t>& stack = s_.scratch.stack;
+    stack.clear();
     auto keep = [&](std::uint32_t p) {
       if (p != invalid_index && p < P && !alive_[p]) {
         alive_[p] = 1;
@@ -565,7 +569,7 @@ class Scheduler {
 void validate_and_schedule(const GraphData& graph, CompiledState& state, std::vector<GraphError>& errors) {
   state.pass_count = std::uint32_t(graph.passes.size());
   state.resource_count = std::uint32_t(graph.resources.size());
-  state.passes.resize(state.pass_count);
+  state.passes.assign(state.pass_count, PassInfo{});
   Scheduler(graph, state, errors).run();
 }
 
@@ -575,8 +579,14 @@ void validate_and_schedule(const GraphData& graph, CompiledState& state, std::ve
 namespace weft {
 
 std::expected<CompiledGraph, GraphErrors> RenderGraph::compile(const CompileOptions& options) const {
-  auto state = std::make_unique<detail::CompiledState>();
+  std::unique_ptr<detail::CompiledState> state;
+  {
+    const std::lock_guard lock(data_->spare_state_mutex);
+    state = std::move(data_->spare_state);
+  }
+  if (!state) state = std::make_unique<detail::CompiledState>();
   state->graph = data_;
+  state->frame_index = 0;
   state->options = options;
   GraphErrors errors{data_->name, data_->declaration_errors};
   if (data_->current_pass != invalid_index)

@@ -159,12 +159,22 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
   const std::uint32_t R = state.resource_count;
   const auto positions = std::uint32_t(state.order.size());
   MemoryPlan plan;
+  plan.heaps = std::move(state.memory.heaps);  // its capacity, from an earlier compile
+  plan.heaps.clear();
   plan.from_device = device != nullptr;
 
   // Requirements, and the transients bucketed by first and last use (linked lists, no sort).
-  std::vector<gpu::MemoryRequirements> requirements(R);
-  std::vector<std::uint32_t> start_head(positions, invalid_index), end_head(positions, invalid_index);
-  std::vector<std::uint32_t> start_next(R, invalid_index), end_next(R, invalid_index);
+  CompileScratch& scratch = state.scratch;
+  std::vector<gpu::MemoryRequirements>& requirements = scratch.requirements;
+  requirements.assign(R, gpu::MemoryRequirements{});
+  std::vector<std::uint32_t>& start_head = scratch.start_head;
+  std::vector<std::uint32_t>& end_head = scratch.end_head;
+  std::vector<std::uint32_t>& start_next = scratch.start_next;
+  std::vector<std::uint32_t>& end_next = scratch.end_next;
+  start_head.assign(positions, invalid_index);
+  end_head.assign(positions, invalid_index);
+  start_next.assign(R, invalid_index);
+  end_next.assign(R, invalid_index);
   for (std::uint32_t r = R; r-- > 0;) {
     ResourceInfo& info = state.resources[r];
     info.heap = invalid_index;
@@ -200,7 +210,7 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
   }
 
   std::vector<HeapBuilder> heaps;
-  std::vector<std::uint32_t> previous;
+  std::vector<std::uint32_t>& previous = scratch.previous;
   state.takeover_first.assign(R, 0);
   state.takeover_count.assign(R, 0);
   state.takeovers.clear();
@@ -231,15 +241,18 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
 
   // Aliasing groups: resources connected by takeovers, numbered by their lowest index.
   if (!state.takeovers.empty()) {
-    std::vector<std::uint32_t> parent(R);
+    std::vector<std::uint32_t>& parent = scratch.parent;
+    parent.resize(R);
     std::iota(parent.begin(), parent.end(), 0u);
     for (std::uint32_t r = 0; r < R; ++r)
       for (std::uint32_t i = state.takeover_first[r], end = i + state.takeover_count[r]; i < end; ++i) {
         const std::uint32_t a = find_root(parent, r), b = find_root(parent, state.takeovers[i]);
         parent[std::max(a, b)] = std::min(a, b);
       }
-    std::vector<std::uint32_t> group_of_root(R, invalid_index);
-    std::vector<std::uint32_t> members(R, 0);
+    std::vector<std::uint32_t>& group_of_root = scratch.group_of_root;
+    std::vector<std::uint32_t>& members = scratch.members;
+    group_of_root.assign(R, invalid_index);
+    members.assign(R, 0);
     for (std::uint32_t r = 0; r < R; ++r)
       if (state.resources[r].heap != invalid_index) ++members[find_root(parent, r)];
     std::uint32_t groups = 0;
