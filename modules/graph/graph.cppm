@@ -6,6 +6,7 @@
 module;
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <expected>
 #include <functional>
 #include <memory>
@@ -605,12 +606,30 @@ class Arena {
   Arena() = default;
   Arena(const Arena&) = delete;
   Arena& operator=(const Arena&) = delete;
-  void* allocate(std::size_t size, std::size_t alignment);
-  std::string_view copy(std::string_view text);
+  // Inline: several calls per pass, and the common case is a pointer bump.
+  inline void* allocate(std::size_t size, std::size_t alignment) {
+    std::byte* p = align(cursor_, alignment);
+    const std::size_t used = std::size_t(p - cursor_) + size;
+    if (cursor_ == nullptr || used > left_) return allocate_in_next_block(size, alignment);
+    left_ -= used;
+    cursor_ = p + size;
+    return p;
+  }
+  inline std::string_view copy(std::string_view text) {
+    if (text.empty()) return {};
+    auto* p = static_cast<char*>(allocate(text.size(), 1));
+    std::memcpy(p, text.data(), text.size());
+    return {p, text.size()};
+  }
   // Forgets everything allocated and starts again at the first block; the blocks stay.
   void reset();
 
  private:
+  static inline std::byte* align(std::byte* at, std::size_t alignment) {
+    const auto address = reinterpret_cast<std::uintptr_t>(at);
+    return reinterpret_cast<std::byte*>((address + alignment - 1) & ~(std::uintptr_t(alignment) - 1));
+  }
+  void* allocate_in_next_block(std::size_t size, std::size_t alignment);
   struct Block {
     std::unique_ptr<std::byte[]> bytes;
     std::size_t size;
