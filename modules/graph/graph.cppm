@@ -738,7 +738,7 @@ struct CompileScratch {
   std::vector<std::uint16_t> pass_texture_uses, pass_buffer_uses, resource_uses;
   std::vector<std::uint32_t> stack;
   std::vector<gpu::MemoryRequirements> requirements;
-  std::vector<std::uint32_t> start_head, end_head, start_next, end_next, previous;
+  std::vector<std::uint32_t> start_head, end_head, start_next, end_next;
   std::vector<std::uint32_t> parent, group_of_root, members;
   std::vector<gpu::Access> current;
   std::vector<std::uint8_t> released;
