@@ -73,8 +73,9 @@ RenderGraph& graph_for_run(Build build, std::optional<RenderGraph>& fresh, Rende
   return fresh.emplace(name);
 }
 
-// A chain: each pass samples the previous pass's texture and renders a new one.
-Timing time_chain(int n, int runs, Build build, const std::vector<std::string>& pass_names,
+// A chain: each pass samples the previous pass's texture and renders a new one. Not inlined,
+// so that `valgrind --tool=callgrind --toggle-collect='*time_chain*'` counts this shape alone.
+[[gnu::noinline]] Timing time_chain(int n, int runs, Build build, const std::vector<std::string>& pass_names,
                   const std::vector<std::string>& tex_names) {
   std::vector<double> setup, compile, total, cpu;
   const gpu::TextureDescriptor output_desc{.label = "output", .size = {1920, 1080, 1}, .format = gpu::Format::RGBA8Unorm,
@@ -145,7 +146,7 @@ DagShape make_dag(int n, std::uint32_t seed) {
   return shape;
 }
 
-Timing time_dag(const DagShape& shape, int runs, Build build, const std::vector<std::string>& pass_names,
+[[gnu::noinline]] Timing time_dag(const DagShape& shape, int runs, Build build, const std::vector<std::string>& pass_names,
                 const std::vector<std::string>& tex_names, std::size_t* culled = nullptr) {
   const int n = int(shape.reads.size());
   std::vector<double> setup, compile, total, cpu;

@@ -3,6 +3,7 @@
 // output, orders passes, aliases transient memory and derives barriers; the compiled graph
 // records one command stream on a weft.gpu device with a debug label and timestamps per pass.
 // Declaration, validation, culling, ordering, aliasing and barrier planning need no device.
+// A graph rebuilt every frame is reset() and filled again, reusing its memory.
 module;
 #include <cstddef>
 #include <cstdint>
