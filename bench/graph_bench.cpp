@@ -5,7 +5,8 @@
 //   build-release/bin/weft-bench-graph [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap]
 //
 // Prints markdown tables. Times are medians over --runs runs (default 15) of
-// std::chrono::steady_clock.
+// std::chrono::steady_clock, plus thread-CPU time (steadier on a shared machine). Graph
+// sizes are timed twice: built into a new RenderGraph, and reset() and rebuilt (steady state).
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -56,15 +57,35 @@ struct Timing {
   double setup_us = 0, compile_us = 0, total_us = 0, cpu_us = 0;
 };
 
-// A chain: each pass samples the previous pass's texture and renders a new one.
-Timing time_chain(int n, int runs, const std::vector<std::string>& pass_names, const std::vector<std::string>& tex_names) {
+// First build: a new RenderGraph per run, so every array, the arena and the compiled state
+// are allocated. Steady state: one RenderGraph reset() and rebuilt per run, as a frame loop
+// does; it starts with an untimed run, so the timed runs reuse that run's memory.
+enum class Build { First, Steady };
+
+const char* to_string(Build build) { return build == Build::First ? "first build" : "reset + rebuild"; }
+
+// The graph a run builds into: a fresh one, or `reused` after reset().
+RenderGraph& graph_for_run(Build build, std::optional<RenderGraph>& fresh, RenderGraph& reused, const char* name) {
+  if (build == Build::Steady) {
+    reused.reset();
+    return reused;
+  }
+  return fresh.emplace(name);
+}
+
+// A chain: each pass samples the previous pass's texture and renders a new one. Not inlined,
+// so that `valgrind --tool=callgrind --toggle-collect='*time_chain*'` counts this shape alone.
+[[gnu::noinline]] Timing time_chain(int n, int runs, Build build, const std::vector<std::string>& pass_names,
+                  const std::vector<std::string>& tex_names) {
   std::vector<double> setup, compile, total, cpu;
   const gpu::TextureDescriptor output_desc{.label = "output", .size = {1920, 1080, 1}, .format = gpu::Format::RGBA8Unorm,
                                            .usage = gpu::TextureUsage::ColorAttachment};
-  for (int run = 0; run < runs; ++run) {
+  RenderGraph reused("chain");
+  for (int run = build == Build::Steady ? -1 : 0; run < runs; ++run) {
+    std::optional<RenderGraph> fresh;
     const double c0 = thread_cpu_us();
     const auto t0 = Clock::now();
-    RenderGraph graph("chain");
+    RenderGraph& graph = graph_for_run(build, fresh, reused, "chain");
     TextureHandle previous;
     for (int i = 0; i < n; ++i) {
       graph.add_pass(pass_names[std::size_t(i)], [&](PassBuilder& b) {
@@ -82,11 +103,13 @@ Timing time_chain(int n, int runs, const std::vector<std::string>& pass_names, c
     const auto t1 = Clock::now();
     auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
     const auto t2 = Clock::now();
-    cpu.push_back(thread_cpu_us() - c0);
+    const double c1 = thread_cpu_us();
     if (!compiled) {
       std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str());
       std::exit(1);
     }
+    if (run < 0) continue;
+    cpu.push_back(c1 - c0);
     setup.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
     compile.push_back(std::chrono::duration<double, std::micro>(t2 - t1).count());
     total.push_back(std::chrono::duration<double, std::micro>(t2 - t0).count());
@@ -123,15 +146,17 @@ DagShape make_dag(int n, std::uint32_t seed) {
   return shape;
 }
 
-Timing time_dag(const DagShape& shape, int runs, const std::vector<std::string>& pass_names,
+[[gnu::noinline]] Timing time_dag(const DagShape& shape, int runs, Build build, const std::vector<std::string>& pass_names,
                 const std::vector<std::string>& tex_names, std::size_t* culled = nullptr) {
   const int n = int(shape.reads.size());
   std::vector<double> setup, compile, total, cpu;
   std::vector<TextureHandle> results(static_cast<std::size_t>(n));
-  for (int run = 0; run < runs; ++run) {
+  RenderGraph reused("dag");
+  for (int run = build == Build::Steady ? -1 : 0; run < runs; ++run) {
+    std::optional<RenderGraph> fresh;
     const double c0 = thread_cpu_us();
     const auto t0 = Clock::now();
-    RenderGraph graph("dag");
+    RenderGraph& graph = graph_for_run(build, fresh, reused, "dag");
     for (int i = 0; i < n; ++i) {
       graph.add_pass(pass_names[std::size_t(i)], [&](PassBuilder& b) {
         for (int source : shape.reads[std::size_t(i)]) b.read(results[std::size_t(source)], TextureUse::Sampled);
@@ -144,11 +169,13 @@ Timing time_dag(const DagShape& shape, int runs, const std::vector<std::string>&
     const auto t1 = Clock::now();
     auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
     const auto t2 = Clock::now();
-    cpu.push_back(thread_cpu_us() - c0);
+    const double c1 = thread_cpu_us();
     if (!compiled) {
       std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str());
       std::exit(1);
     }
+    if (run < 0) continue;
+    cpu.push_back(c1 - c0);
     if (culled) *culled = std::size_t(n) - compiled->order().size();
     setup.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
     compile.push_back(std::chrono::duration<double, std::micro>(t2 - t1).count());
@@ -406,22 +433,28 @@ int main(int argc, char** argv) {
   std::printf("## weft.graph benchmark\n\nSetup (declaring every pass) + compile (validate, cull, order, lifetimes, "
               "aliasing, barriers), median of %d runs.\n\n",
               runs);
-  std::printf("| graph | passes | setup µs | compile µs | setup+compile µs | µs/pass | setup+compile thread-CPU µs |\n"
-              "|:--|--:|--:|--:|--:|--:|--:|\n");
-  for (int n : sizes) {
-    const auto pass_names = names("pass", n), tex_names = names("tex", n);
-    const int r = n >= 10000 ? std::max(7, runs / 2) : runs;
-    const Timing chain = time_chain(n, r, pass_names, tex_names);
-    std::printf("| chain | %d | %.1f | %.1f | %.1f | %.3f | %.1f |\n", n, chain.setup_us, chain.compile_us,
-                chain.total_us, chain.total_us / n, chain.cpu_us);
+  std::printf("First build: a new RenderGraph per run. Reset + rebuild: one RenderGraph, reset() and rebuilt per "
+              "run (a frame loop's steady state).\n\n");
+  std::printf("| graph | build | passes | setup µs | compile µs | setup+compile µs | µs/pass | setup+compile thread-CPU µs |\n"
+              "|:--|:--|--:|--:|--:|--:|--:|--:|\n");
+  for (Build build : {Build::First, Build::Steady}) {
+    for (int n : sizes) {
+      const auto pass_names = names("pass", n), tex_names = names("tex", n);
+      const int r = n >= 10000 ? std::max(7, runs / 2) : runs;
+      const Timing chain = time_chain(n, r, build, pass_names, tex_names);
+      std::printf("| chain | %s | %d | %.1f | %.1f | %.1f | %.3f | %.1f |\n", to_string(build), n, chain.setup_us,
+                  chain.compile_us, chain.total_us, chain.total_us / n, chain.cpu_us);
+    }
   }
-  for (int n : sizes) {
-    const auto pass_names = names("pass", n), tex_names = names("tex", n);
-    const int r = n >= 10000 ? std::max(7, runs / 2) : runs;
-    std::size_t culled = 0;
-    const Timing dag = time_dag(make_dag(n, 42), r, pass_names, tex_names, &culled);
-    std::printf("| random DAG (%zu culled) | %d | %.1f | %.1f | %.1f | %.3f | %.1f |\n", culled, n, dag.setup_us,
-                dag.compile_us, dag.total_us, dag.total_us / n, dag.cpu_us);
+  for (Build build : {Build::First, Build::Steady}) {
+    for (int n : sizes) {
+      const auto pass_names = names("pass", n), tex_names = names("tex", n);
+      const int r = n >= 10000 ? std::max(7, runs / 2) : runs;
+      std::size_t culled = 0;
+      const Timing dag = time_dag(make_dag(n, 42), r, build, pass_names, tex_names, &culled);
+      std::printf("| random DAG (%zu culled) | %s | %d | %.1f | %.1f | %.1f | %.3f | %.1f |\n", culled, to_string(build),
+                  n, dag.setup_us, dag.compile_us, dag.total_us, dag.total_us / n, dag.cpu_us);
+    }
   }
 
   std::printf("\n### Transient memory of a realistic 1920x1080 frame\n\n");

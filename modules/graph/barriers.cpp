@@ -22,8 +22,10 @@ bool needs_barrier(gpu::Access before, gpu::Access after, bool texture) {
 
 void plan_barriers(const GraphData& graph, CompiledState& state) {
   const std::uint32_t R = state.resource_count;
-  std::vector<gpu::Access> current(R, gpu::Access::Undefined);
-  std::vector<std::uint8_t> released(R, 0);  // a texture moves to its release state only once
+  std::vector<gpu::Access>& current = state.scratch.current;
+  std::vector<std::uint8_t>& released = state.scratch.released;  // a texture moves to its release state only once
+  current.assign(R, gpu::Access::Undefined);
+  released.assign(R, 0);
   for (std::uint32_t r = 0; r < R; ++r)
     if (graph.resources[r].imported) current[r] = graph.resources[r].initial_state;
 

@@ -18,36 +18,26 @@ import weft.gpu;
 
 namespace weft::detail {
 
-void* Arena::allocate(std::size_t size, std::size_t alignment) {
-  auto aligned_cursor = [&]() -> std::byte* {
-    const auto address = reinterpret_cast<std::uintptr_t>(cursor_);
-    const std::uintptr_t aligned = (address + alignment - 1) & ~(std::uintptr_t(alignment) - 1);
-    return reinterpret_cast<std::byte*>(aligned);
-  };
-  if (cursor_ != nullptr) {
-    std::byte* p = aligned_cursor();
-    const std::size_t padding = std::size_t(p - cursor_);
-    if (padding + size <= left_) {
-      left_ -= padding + size;
-      cursor_ = p + size;
-      return p;
-    }
+// The next block a reset() kept, if it is large enough; otherwise a new one in its place.
+void* Arena::allocate_in_next_block(std::size_t size, std::size_t alignment) {
+  const std::size_t next = cursor_ == nullptr ? 0 : block_ + 1;
+  if (next == blocks_.size() || blocks_[next].size < size + alignment) {
+    const std::size_t block_size = std::max<std::size_t>(16 * 1024, size + alignment);
+    blocks_.insert(blocks_.begin() + std::ptrdiff_t(next),
+                   Block{std::make_unique_for_overwrite<std::byte[]>(block_size), block_size});
   }
-  const std::size_t block_size = std::max<std::size_t>(16 * 1024, size + alignment);
-  blocks_.push_back(std::make_unique_for_overwrite<std::byte[]>(block_size));
-  cursor_ = blocks_.back().get();
-  left_ = block_size;
-  std::byte* p = aligned_cursor();
-  left_ -= std::size_t(p - cursor_) + size;
+  block_ = next;
+  std::byte* start = blocks_[next].bytes.get();
+  std::byte* p = align(start, alignment);
+  left_ = blocks_[next].size - std::size_t(p - start) - size;
   cursor_ = p + size;
   return p;
 }
 
-std::string_view Arena::copy(std::string_view text) {
-  if (text.empty()) return {};
-  auto* p = static_cast<char*>(allocate(text.size(), 1));
-  std::memcpy(p, text.data(), text.size());
-  return {p, text.size()};
+void Arena::reset() {
+  block_ = 0;
+  cursor_ = blocks_.empty() ? nullptr : blocks_[0].bytes.get();
+  left_ = blocks_.empty() ? 0 : blocks_[0].size;
 }
 
 GraphData::GraphData(std::string_view graph_name) : name(graph_name) {
@@ -61,6 +51,20 @@ GraphData::GraphData(std::string_view graph_name) : name(graph_name) {
 GraphData::~GraphData() {
   for (PassNode& pass : passes)
     if (pass.execute.destroy) pass.execute.destroy(pass.execute.callable, pass.execute.data);
+}
+
+void GraphData::clear() {
+  for (PassNode& pass : passes)
+    if (pass.execute.destroy) pass.execute.destroy(pass.execute.callable, pass.execute.data);
+  passes.clear();
+  resources.clear();
+  versions.clear();
+  accesses.clear();
+  outputs.clear();
+  declaration_errors.clear();
+  blackboard.entries_.clear();
+  current_pass = invalid_index;
+  arena.reset();
 }
 
 std::string GraphData::describe(std::uint32_t resource) const {
@@ -128,46 +132,75 @@ std::string use_names(std::uint16_t uses, ResourceType type) {
   return out;
 }
 
-// Records one use of one resource by the current pass; returns the version the pass leaves
-// the resource at (the input version for reads, the next version for writes).
-std::uint32_t declare(GraphData& g, std::uint32_t pass, ResourceType type, std::uint32_t resource,
-                      std::uint32_t version, std::uint16_t use, bool write, gpu::Access access,
-                      std::string_view use_name) {
+[[gnu::cold, gnu::noinline]] void report_invalid_handle(GraphData& g, std::uint32_t pass, ResourceType type,
+                                                        std::uint32_t resource, std::uint32_t version, bool write) {
   const std::string_view pass_name = g.passes[pass].name;
-  const std::string_view type_name = type == ResourceType::Texture ? "texture" : "buffer";
   if (resource >= g.resources.size() || g.resources[resource].type != type) {
     add_error(g, GraphErrorKind::InvalidHandle,
               weft::format("pass '{}': {}s a {} through an invalid handle (index {}, version {})", pass_name,
-                          write ? "write" : "read", type_name, resource, version),
+                          write ? "write" : "read", type == ResourceType::Texture ? "texture" : "buffer", resource,
+                          version),
               {std::string(pass_name)}, {});
+    return;
+  }
+  add_error(g, GraphErrorKind::InvalidHandle,
+            weft::format("pass '{}': uses {} version {}, which does not exist (latest is version {})", pass_name,
+                        g.describe(resource), version, g.versions[g.resources[resource].latest_slot].version),
+            {std::string(pass_name)}, {std::string(g.resources[resource].name)});
+}
+
+[[gnu::cold, gnu::noinline]] void report_conflict(GraphData& g, std::uint32_t pass, ResourceType type,
+                                                  std::uint32_t resource, const AccessNode& existing,
+                                                  std::uint32_t version, std::uint16_t use, bool two_versions) {
+  const std::string_view pass_name = g.passes[pass].name;
+  add_error(g, GraphErrorKind::ConflictingUsage,
+            two_versions ? weft::format("pass '{}': declares {} at two versions ({} and {}); a pass sees one version "
+                                       "of a resource",
+                                       pass_name, g.describe(resource), g.versions[existing.slot].version, version)
+                         : weft::format("pass '{}': uses {} both as {} and as {}; a pass can use a resource one way at "
+                                       "a time",
+                                       pass_name, g.describe(resource), use_names(existing.uses, type),
+                                       use_names(use, type)),
+            {std::string(pass_name)}, {std::string(g.resources[resource].name)});
+}
+
+[[gnu::cold, gnu::noinline]] void report_second_writer(GraphData& g, std::uint32_t pass, std::uint32_t resource,
+                                                       std::uint32_t version, std::uint32_t other_pass) {
+  const std::string_view pass_name = g.passes[pass].name, other = g.passes[other_pass].name;
+  add_error(g, GraphErrorKind::MultipleWriters,
+            weft::format("{} (version {}) has two writers: pass '{}' and pass '{}' both write it; write the handle "
+                        "the first write returns to order them",
+                        g.describe(resource), version, other, pass_name),
+            {std::string(other), std::string(pass_name)}, {std::string(g.resources[resource].name)});
+}
+
+// Records one use of one resource by the current pass; returns the version the pass leaves
+// the resource at (the input version for reads, the next version for writes). The checks
+// are cheap comparisons; messages are built only for a mistake, out of line.
+std::uint32_t declare(GraphData& g, std::uint32_t pass, ResourceType type, std::uint32_t resource,
+                      std::uint32_t version, std::uint16_t use, bool write, gpu::Access access) {
+  if (resource >= g.resources.size() || g.resources[resource].type != type) {
+    report_invalid_handle(g, pass, type, resource, version, write);
     return version;
   }
-  const std::uint32_t slot = g.find_slot(resource, version);
+  const ResourceNode& node = g.resources[resource];
+  // Most handles name the latest version: no walk back through the versions.
+  std::uint32_t slot = node.latest_slot;
+  if (g.versions[slot].version != version) slot = g.find_slot(resource, version);
   if (slot == invalid_index) {
-    add_error(g, GraphErrorKind::InvalidHandle,
-              weft::format("pass '{}': uses {} version {}, which does not exist (latest is version {})", pass_name,
-                          g.describe(resource), version, g.versions[g.resources[resource].latest_slot].version),
-              {std::string(pass_name)}, {std::string(g.resources[resource].name)});
+    report_invalid_handle(g, pass, type, resource, version, write);
     return version;
   }
 
   // A second declaration of the same resource by this pass merges into the first.
-  const PassNode& p = g.passes[pass];
-  for (std::uint32_t i = p.first_access; i < g.accesses.size(); ++i) {
+  for (std::uint32_t i = g.passes[pass].first_access; i < g.accesses.size(); ++i) {
     AccessNode& existing = g.accesses[i];
     if (existing.resource != resource) continue;
     const bool same_input = slot == existing.slot;
     const bool own_output = existing.writes() && slot == existing.out_slot;
     const auto merged = merge_access(existing.access, access);
     if ((!same_input && !own_output) || !merged) {
-      add_error(g, GraphErrorKind::ConflictingUsage,
-                merged ? weft::format("pass '{}': declares {} at two versions ({} and {}); a pass sees one version "
-                                     "of a resource",
-                                     pass_name, g.describe(resource), g.versions[existing.slot].version, version)
-                       : weft::format("pass '{}': uses {} both as {} and as {}; a pass can use a resource one way at "
-                                     "a time",
-                                     pass_name, g.describe(resource), use_names(existing.uses, type), use_name),
-                {std::string(pass_name)}, {std::string(g.resources[resource].name)});
+      report_conflict(g, pass, type, resource, existing, version, use, merged.has_value());
       return version;
     }
     existing.access = *merged;
@@ -194,28 +227,20 @@ std::uint32_t declare(GraphData& g, std::uint32_t pass, ResourceType type, std::
   a.uses = use;
   a.reads = !write;
   a.texture = type == ResourceType::Texture;
-  a.imported = g.resources[resource].imported;
+  a.imported = node.imported;
   if (write) {
     VersionNode& input = g.versions[slot];
-    if (input.next_writer != invalid_index) {
-      const std::string_view other = g.passes[input.next_writer].name;
-      add_error(g, GraphErrorKind::MultipleWriters,
-                weft::format("{} (version {}) has two writers: pass '{}' and pass '{}' both write it; write the "
-                            "handle the first write returns to order them",
-                            g.describe(resource), version, other, pass_name),
-                {std::string(other), std::string(pass_name)}, {std::string(g.resources[resource].name)});
-    } else {
-      input.next_writer = pass;
-    }
+    if (input.next_writer != invalid_index) report_second_writer(g, pass, resource, version, input.next_writer);
+    else input.next_writer = pass;
     a.out_slot = new_version(g, resource, pass);
   }
   g.accesses.push_back(a);
   return write ? g.versions[a.out_slot].version : version;
 }
 
-void check_direction(GraphData& g, std::uint32_t pass, std::uint32_t resource, bool declared_write, bool use_writes,
-                     std::string_view use_name) {
-  if (declared_write == use_writes) return;
+// A read() with a writing use or a write() with a reading one.
+[[gnu::cold, gnu::noinline]] void report_direction(GraphData& g, std::uint32_t pass, std::uint32_t resource,
+                                                   bool declared_write, std::string_view use_name) {
   const std::string_view pass_name = g.passes[pass].name;
   const std::string what = resource < g.resources.size() ? g.describe(resource) : std::string("a resource");
   add_error(g, GraphErrorKind::ConflictingUsage,
@@ -228,7 +253,8 @@ void check_direction(GraphData& g, std::uint32_t pass, std::uint32_t resource, b
                                                                     : std::vector<std::string>{});
 }
 
-void check_texture_desc(GraphData& g, std::uint32_t resource, const TextureDesc& desc, std::string_view pass_name) {
+[[gnu::cold, gnu::noinline]] void report_texture_desc(GraphData& g, std::uint32_t resource, const TextureDesc& desc,
+                                                      std::string_view pass_name) {
   std::string problem;
   if (desc.format == gpu::Format::Undefined) problem = "an undefined format";
   else if (desc.mip_level_count == 0) problem = "zero mip levels";
@@ -244,6 +270,14 @@ void check_texture_desc(GraphData& g, std::uint32_t resource, const TextureDesc&
                               : weft::format("pass '{}': creates {} with {}", pass_name, g.describe(resource), problem),
             pass_name.empty() ? std::vector<std::string>{} : std::vector<std::string>{std::string(pass_name)},
             {std::string(g.resources[resource].name)});
+}
+
+void check_texture_desc(GraphData& g, std::uint32_t resource, const TextureDesc& desc, std::string_view pass_name) {
+  const gpu::Extent3D& e = desc.size.absolute;
+  const bool valid = desc.format != gpu::Format::Undefined && desc.mip_level_count != 0 &&
+                     (desc.size.is_relative ? desc.size.relative.width > 0.0f && desc.size.relative.height > 0.0f
+                                            : e.width != 0 && e.height != 0 && e.depth_or_layers != 0);
+  if (!valid) report_texture_desc(g, resource, desc, pass_name);
 }
 
 }  // namespace
@@ -302,30 +336,30 @@ BufferHandle PassBuilder::create_buffer(std::string_view name, const BufferDesc&
 }
 
 TextureHandle PassBuilder::read(TextureHandle handle, TextureUse use) {
-  detail::check_direction(*graph_, pass_, handle.index, false, is_write(use), to_string(use));
+  if (is_write(use)) detail::report_direction(*graph_, pass_, handle.index, false, to_string(use));
   handle.version = detail::declare(*graph_, pass_, ResourceType::Texture, handle.index, handle.version,
-                                   detail::use_bit(use), false, access_of(use), to_string(use));
+                                   detail::use_bit(use), false, access_of(use));
   return handle;
 }
 
 BufferHandle PassBuilder::read(BufferHandle handle, BufferUse use) {
-  detail::check_direction(*graph_, pass_, handle.index, false, is_write(use), to_string(use));
+  if (is_write(use)) detail::report_direction(*graph_, pass_, handle.index, false, to_string(use));
   handle.version = detail::declare(*graph_, pass_, ResourceType::Buffer, handle.index, handle.version,
-                                   detail::use_bit(use), false, access_of(use), to_string(use));
+                                   detail::use_bit(use), false, access_of(use));
   return handle;
 }
 
 TextureHandle PassBuilder::write(TextureHandle handle, TextureUse use) {
-  detail::check_direction(*graph_, pass_, handle.index, true, is_write(use), to_string(use));
+  if (!is_write(use)) detail::report_direction(*graph_, pass_, handle.index, true, to_string(use));
   handle.version = detail::declare(*graph_, pass_, ResourceType::Texture, handle.index, handle.version,
-                                   detail::use_bit(use), true, access_of(use), to_string(use));
+                                   detail::use_bit(use), true, access_of(use));
   return handle;
 }
 
 BufferHandle PassBuilder::write(BufferHandle handle, BufferUse use) {
-  detail::check_direction(*graph_, pass_, handle.index, true, is_write(use), to_string(use));
+  if (!is_write(use)) detail::report_direction(*graph_, pass_, handle.index, true, to_string(use));
   handle.version = detail::declare(*graph_, pass_, ResourceType::Buffer, handle.index, handle.version,
-                                   detail::use_bit(use), true, access_of(use), to_string(use));
+                                   detail::use_bit(use), true, access_of(use));
   return handle;
 }
 
@@ -400,6 +434,17 @@ RenderGraph::RenderGraph(std::string_view name) : data_(std::make_shared<GraphDa
 RenderGraph::RenderGraph(RenderGraph&&) noexcept = default;
 RenderGraph& RenderGraph::operator=(RenderGraph&&) noexcept = default;
 RenderGraph::~RenderGraph() = default;
+
+void RenderGraph::reset() {
+  // use_count() == 1: no compiled graph refers to these arrays any more.
+  if (data_.use_count() > 1) {
+    if (!spare_ || spare_.use_count() > 1) spare_ = std::make_shared<GraphData>(data_->name);
+    std::swap(data_, spare_);
+  } else if (spare_ && spare_.use_count() == 1) {
+    spare_->clear();  // what its callbacks captured is released once their compiled graph is gone
+  }
+  data_->clear();
+}
 
 TextureHandle RenderGraph::import_texture(std::string_view name, const gpu::Texture* texture,
                                           gpu::Access initial_state) {

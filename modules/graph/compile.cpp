@@ -9,6 +9,7 @@ module;
 #include <expected>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <queue>
 #include <string>
 #include <string_view>
@@ -28,19 +29,20 @@ constexpr std::uint16_t draw_buffer_uses = use_bit(BufferUse::Vertex) | use_bit(
 constexpr std::uint16_t texture_copy_uses = use_bit(TextureUse::CopySrc) | use_bit(TextureUse::CopyDst);
 constexpr std::uint16_t buffer_copy_uses = use_bit(BufferUse::CopySrc) | use_bit(BufferUse::CopyDst);
 
-gpu::TextureUsage texture_usage_of(std::uint16_t uses) {
-  auto usage = gpu::TextureUsage::None;
-  for (unsigned bit = 0; bit < 8; ++bit)
-    if (uses & (1u << bit)) usage = usage | usage_of(TextureUse(bit));
-  return usage;
+// The gpu usage of every combination of use bits, tabulated once: compile asks per resource.
+template <class Use, class Usage>
+constexpr std::array<Usage, 256> usage_table() {
+  std::array<Usage, 256> table{};
+  for (unsigned uses = 0; uses < 256; ++uses)
+    for (unsigned bit = 0; bit < 8; ++bit)
+      if (uses & (1u << bit)) table[uses] = Usage(std::uint32_t(table[uses]) | std::uint32_t(usage_of(Use(bit))));
+  return table;
 }
+constexpr auto texture_usages = usage_table<TextureUse, gpu::TextureUsage>();
+constexpr auto buffer_usages = usage_table<BufferUse, gpu::BufferUsage>();
 
-gpu::BufferUsage buffer_usage_of(std::uint16_t uses) {
-  auto usage = gpu::BufferUsage::None;
-  for (unsigned bit = 0; bit < 8; ++bit)
-    if (uses & (1u << bit)) usage = usage | usage_of(BufferUse(bit));
-  return usage;
-}
+gpu::TextureUsage texture_usage_of(std::uint16_t uses) { return texture_usages[uses & 0xffu]; }
+gpu::BufferUsage buffer_usage_of(std::uint16_t uses) { return buffer_usages[uses & 0xffu]; }
 
 // The usage bits `format` can never take, from gpu::forbidden_usages, computed once per
 // format (the messages are built only when a texture uses one).
@@ -81,7 +83,9 @@ struct Edge {
 
 class Scheduler {
  public:
-  Scheduler(const GraphData& g, CompiledState& s, std::vector<GraphError>& errors) : g_(g), s_(s), errors_(errors) {}
+  Scheduler(const GraphData& g, CompiledState& s, std::vector<GraphError>& errors)
+      : g_(g), s_(s), errors_(errors), alive_(s.scratch.alive), pass_texture_uses_(s.scratch.pass_texture_uses),
+        pass_buffer_uses_(s.scratch.pass_buffer_uses), resource_uses_(s.scratch.resource_uses) {}
 
   void run() {
     init_resources();
@@ -97,9 +101,10 @@ class Scheduler {
   const GraphData& g_;
   CompiledState& s_;
   std::vector<GraphError>& errors_;
-  std::vector<std::uint8_t> alive_;
-  std::vector<std::uint16_t> pass_texture_uses_, pass_buffer_uses_;
-  std::vector<std::uint16_t> resource_uses_;
+  std::vector<std::uint8_t>& alive_;
+  std::vector<std::uint16_t>& pass_texture_uses_;
+  std::vector<std::uint16_t>& pass_buffer_uses_;
+  std::vector<std::uint16_t>& resource_uses_;
   bool backward_edge_ = false;
 
   void error(GraphErrorKind kind, std::string message, std::vector<std::string> passes,
@@ -112,7 +117,7 @@ class Scheduler {
 
   void init_resources() {
     const std::uint32_t R = s_.resource_count;
-    s_.resources.resize(R);
+    s_.resources.assign(R, ResourceInfo{});
     s_.resource_final_state.assign(R, gpu::Access::Undefined);
     resource_uses_.assign(R, 0);
     const gpu::Extent3D output = s_.options.output_extent;
@@ -134,8 +139,12 @@ class Scheduler {
                                               : std::vector<std::string>{},
                 {resource_name(r)});
         }
-        info.extent = d.size.resolve(have_output ? output : gpu::Extent3D{1, 1, 1});
-        if (!d.size.is_relative) info.extent.depth_or_layers = std::max(1u, d.size.absolute.depth_or_layers);
+        if (d.size.is_relative) {
+          info.extent = d.size.resolve(have_output ? output : gpu::Extent3D{1, 1, 1});
+        } else {
+          info.extent = d.size.absolute;
+          info.extent.depth_or_layers = std::max(1u, d.size.absolute.depth_or_layers);
+        }
         info.format = d.format;
         info.mip_level_count = d.mip_level_count;
         info.dimension = d.dimension;
@@ -153,8 +162,10 @@ class Scheduler {
     const std::uint32_t P = s_.pass_count;
     pass_texture_uses_.assign(P, 0);
     pass_buffer_uses_.assign(P, 0);
+    alive_.assign(P, 0);
     for (std::uint32_t p = 0; p < P; ++p) {
       const PassNode& pass = g_.passes[p];
+      bool writes_import = false;
       for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
         const AccessNode& a = g_.accesses[i];
         const VersionNode& v = g_.versions[a.slot];
@@ -169,7 +180,9 @@ class Scheduler {
         if (v.producer != invalid_index && v.producer > p) backward_edge_ = true;
         if (a.reads && v.next_writer != invalid_index && v.next_writer != p && v.next_writer < p)
           backward_edge_ = true;
+        writes_import = writes_import || (a.writes() && a.imported);
       }
+      alive_[p] = pass.side_effect || writes_import;  // a root of cull()
     }
     for (std::uint32_t p = 0; p < P; ++p) infer_kind(p);
   }
@@ -210,25 +223,20 @@ class Scheduler {
   }
 
   // Keeps side-effect passes, passes writing imported resources (their results outlive the
-  // frame) and producers of outputs, then everything those need; the rest is culled.
+  // frame; scan_accesses() marked both alive) and producers of outputs, then everything those
+  // need; the rest is culled.
   void cull() {
     const std::uint32_t P = s_.pass_count;
-    alive_.assign(P, 0);
-    std::vector<std::uint32_t> stack;
-    stack.reserve(P);
+    std::vector<std::uint32_t>& stack = s_.scratch.stack;
+    stack.clear();
     auto keep = [&](std::uint32_t p) {
       if (p != invalid_index && p < P && !alive_[p]) {
         alive_[p] = 1;
         stack.push_back(p);
       }
     };
-    for (std::uint32_t p = 0; p < P; ++p) {
-      const PassNode& pass = g_.passes[p];
-      bool root = pass.side_effect;
-      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end && !root; ++i)
-        root = g_.accesses[i].writes() && g_.accesses[i].imported;
-      if (root) keep(p);
-    }
+    for (std::uint32_t p = 0; p < P; ++p)
+      if (alive_[p]) stack.push_back(p);
     for (const OutputNode& out : g_.outputs) {
       if (out.resource >= s_.resource_count) continue;
       const std::uint32_t slot = g_.find_slot(out.resource, out.version);
@@ -461,10 +469,11 @@ class Scheduler {
         }
         // A storage texture whose memory is taken over leaves GENERAL through a layout that
         // needs Sampled (see release_state()).
+        const std::uint32_t forbidden = forbidden_mask(info.format);
         if (!node.imported && gpu::has(info.texture_usage, gpu::TextureUsage::Storage) &&
-            !(forbidden_mask(info.format) & std::uint32_t(gpu::TextureUsage::Sampled)))
+            !(forbidden & std::uint32_t(gpu::TextureUsage::Sampled)))
           info.texture_usage = info.texture_usage | gpu::TextureUsage::Sampled;
-        if (forbidden_mask(info.format) & std::uint32_t(texture_usage_of(uses))) {
+        if (forbidden & std::uint32_t(texture_usage_of(uses))) {
           for (unsigned bit = 0; bit < 8; ++bit) {
             if (!(uses & (1u << bit))) continue;
             const auto use = TextureUse(bit);
@@ -535,7 +544,7 @@ class Scheduler {
       bool mismatch = false;
       for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
         const AccessNode& a = g_.accesses[i];
-        if (g_.resources[a.resource].type != ResourceType::Texture || !(a.uses & attachment_uses)) continue;
+        if (!a.texture || !(a.uses & attachment_uses)) continue;
         if (first == invalid_index) {
           first = a.resource;
           continue;
@@ -565,7 +574,7 @@ class Scheduler {
 void validate_and_schedule(const GraphData& graph, CompiledState& state, std::vector<GraphError>& errors) {
   state.pass_count = std::uint32_t(graph.passes.size());
   state.resource_count = std::uint32_t(graph.resources.size());
-  state.passes.resize(state.pass_count);
+  state.passes.assign(state.pass_count, PassInfo{});
   Scheduler(graph, state, errors).run();
 }
 
@@ -575,8 +584,14 @@ void validate_and_schedule(const GraphData& graph, CompiledState& state, std::ve
 namespace weft {
 
 std::expected<CompiledGraph, GraphErrors> RenderGraph::compile(const CompileOptions& options) const {
-  auto state = std::make_unique<detail::CompiledState>();
+  std::unique_ptr<detail::CompiledState> state;
+  {
+    const std::lock_guard lock(data_->spare_state_mutex);
+    state = std::move(data_->spare_state);
+  }
+  if (!state) state = std::make_unique<detail::CompiledState>();
   state->graph = data_;
+  state->frame_index = 0;
   state->options = options;
   GraphErrors errors{data_->name, data_->declaration_errors};
   if (data_->current_pass != invalid_index)

@@ -7,6 +7,7 @@ module;
 #include <cstdint>
 #include <expected>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <span>
 #include <string>
@@ -219,6 +220,17 @@ double elapsed_us(std::chrono::steady_clock::time_point since) {
 }  // namespace weft::detail
 
 namespace weft {
+
+// The state goes back to its graph for the next compile() to reuse, without its gpu objects
+// (they belong to this compiled graph's memory plan) and without its reference to the graph
+// (which would keep the graph alive through itself).
+CompiledGraph::~CompiledGraph() {
+  if (!state_ || !state_->graph) return;
+  std::shared_ptr<detail::GraphData> graph = std::move(state_->graph);
+  state_->realized.reset();
+  const std::lock_guard lock(graph->spare_state_mutex);
+  graph->spare_state = std::move(state_);
+}
 
 void PassContext::keep_alive(std::unique_ptr<detail::KeptObject> object) const {
   executor_->kept.push_back(std::move(object));

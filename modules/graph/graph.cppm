@@ -3,12 +3,15 @@
 // output, orders passes, aliases transient memory and derives barriers; the compiled graph
 // records one command stream on a weft.gpu device with a debug label and timestamps per pass.
 // Declaration, validation, culling, ordering, aliasing and barrier planning need no device.
+// A graph rebuilt every frame is reset() and filled again, reusing its memory.
 module;
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <expected>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <new>
 #include <optional>
 #include <span>
@@ -483,6 +486,16 @@ class RenderGraph {
   RenderGraph& operator=(RenderGraph&&) noexcept;
   ~RenderGraph();
 
+  // Empties the graph for the next frame's passes (Frostbite's rebuild-every-frame loop),
+  // keeping the memory of its arrays, its arena and its last compile's working state, so a
+  // graph rebuilt with the same shape allocates nothing. Handles, the Data& add_pass
+  // returned and the blackboard's entries are invalid afterwards. A compiled graph that is
+  // still alive keeps the declarations it was compiled from: the graph then continues in a
+  // second set of arrays (and goes back to the first one when that compiled graph is gone),
+  // so keeping last frame's compiled graph while building this frame's also allocates nothing.
+  // Objects captured by the old execute callbacks are destroyed when their arrays are reused.
+  void reset();
+
   // Adds a pass: setup(PassBuilder&, Data&) runs now and fills Data with handles;
   // execute(const PassResources&, const Data&, PassContext&) runs at every execute() unless
   // the pass is culled. The returned Data stays valid for the graph's lifetime.
@@ -540,6 +553,7 @@ class RenderGraph {
 
  private:
   std::shared_ptr<detail::GraphData> data_;
+  std::shared_ptr<detail::GraphData> spare_;  // the other set of arrays reset() switches between
 };
 
 // ---- the compiled graph ----------------------------------------------------------------
@@ -593,11 +607,36 @@ class Arena {
   Arena() = default;
   Arena(const Arena&) = delete;
   Arena& operator=(const Arena&) = delete;
-  void* allocate(std::size_t size, std::size_t alignment);
-  std::string_view copy(std::string_view text);
+  // Inline: several calls per pass, and the common case is a pointer bump.
+  inline void* allocate(std::size_t size, std::size_t alignment) {
+    std::byte* p = align(cursor_, alignment);
+    const std::size_t used = std::size_t(p - cursor_) + size;
+    if (cursor_ == nullptr || used > left_) return allocate_in_next_block(size, alignment);
+    left_ -= used;
+    cursor_ = p + size;
+    return p;
+  }
+  inline std::string_view copy(std::string_view text) {
+    if (text.empty()) return {};
+    auto* p = static_cast<char*>(allocate(text.size(), 1));
+    std::memcpy(p, text.data(), text.size());
+    return {p, text.size()};
+  }
+  // Forgets everything allocated and starts again at the first block; the blocks stay.
+  void reset();
 
  private:
-  std::vector<std::unique_ptr<std::byte[]>> blocks_;
+  static inline std::byte* align(std::byte* at, std::size_t alignment) {
+    const auto address = reinterpret_cast<std::uintptr_t>(at);
+    return reinterpret_cast<std::byte*>((address + alignment - 1) & ~(std::uintptr_t(alignment) - 1));
+  }
+  void* allocate_in_next_block(std::size_t size, std::size_t alignment);
+  struct Block {
+    std::unique_ptr<std::byte[]> bytes;
+    std::size_t size;
+  };
+  std::vector<Block> blocks_;
+  std::size_t block_ = 0;  // the block `cursor_` points into
   std::byte* cursor_ = nullptr;
   std::size_t left_ = 0;
 };
@@ -667,6 +706,8 @@ struct GraphData {
   GraphData(const GraphData&) = delete;
   GraphData& operator=(const GraphData&) = delete;
   ~GraphData();
+  // Destroys the passes' data and callables and empties every array, keeping capacity.
+  void clear();
 
   std::string name;
   Arena arena;
@@ -685,6 +726,23 @@ struct GraphData {
   }
   // The version slot a handle names, or invalid_index for a handle this graph never returned.
   [[nodiscard]] std::uint32_t find_slot(std::uint32_t resource, std::uint32_t version) const;
+
+  // The state of a compiled graph that is gone, for the next compile() to reuse. A compiled
+  // graph may be destroyed on another thread than the one compiling, hence the lock.
+  std::mutex spare_state_mutex;
+  std::unique_ptr<CompiledState> spare_state;
+};
+
+// compile()'s working memory, kept with the compiled state so that a recompile reuses it.
+struct CompileScratch {
+  std::vector<std::uint8_t> alive;
+  std::vector<std::uint16_t> pass_texture_uses, pass_buffer_uses, resource_uses;
+  std::vector<std::uint32_t> stack;
+  std::vector<gpu::MemoryRequirements> requirements;
+  std::vector<std::uint32_t> start_head, end_head, start_next, end_next;
+  std::vector<std::uint32_t> parent, group_of_root, members;
+  std::vector<gpu::Access> current;
+  std::vector<std::uint8_t> released;
 };
 
 struct Realized;  // gpu objects of an executed graph (execute.cpp)
@@ -717,6 +775,7 @@ struct CompiledState {
 
   std::unique_ptr<Realized> realized;
   std::uint64_t frame_index = 0;
+  CompileScratch scratch;
 };
 
 // The state a texture is moved to when another transient first takes over (part of) its

@@ -17,7 +17,6 @@ namespace weft {
 CompiledGraph::CompiledGraph(std::unique_ptr<detail::CompiledState> state) : state_(std::move(state)) {}
 CompiledGraph::CompiledGraph(CompiledGraph&&) noexcept = default;
 CompiledGraph& CompiledGraph::operator=(CompiledGraph&&) noexcept = default;
-CompiledGraph::~CompiledGraph() = default;
 
 std::string_view CompiledGraph::name() const { return state_->graph->name; }
 std::span<const std::uint32_t> CompiledGraph::order() const { return state_->order; }

@@ -104,14 +104,16 @@ struct HeapBuilder {
     }
   }
 
-  // Marks [offset, offset + bytes) as `resource`'s and appends the previous occupants.
-  void occupy(std::uint64_t offset, std::uint64_t bytes, std::uint32_t resource, std::vector<std::uint32_t>& previous) {
+  // Marks [offset, offset + bytes) as `resource`'s and appends the previous occupants to
+  // `previous` (each once: `previous` holds only this resource's).
+  void occupy(std::uint64_t offset, std::uint64_t bytes, std::uint32_t resource, std::vector<std::uint32_t>& previous,
+              std::size_t previous_begin) {
     const std::uint64_t end = offset + bytes;
     auto first = std::partition_point(segments.begin(), segments.end(), [&](const Segment& s) { return s.end <= offset; });
     auto last = first;
     for (; last != segments.end() && last->begin < end; ++last)
       if (last->occupant != invalid_index &&
-          std::find(previous.begin(), previous.end(), last->occupant) == previous.end())
+          std::find(previous.begin() + std::ptrdiff_t(previous_begin), previous.end(), last->occupant) == previous.end())
         previous.push_back(last->occupant);
     Segment replacement[3];
     std::size_t n = 0;
@@ -159,12 +161,22 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
   const std::uint32_t R = state.resource_count;
   const auto positions = std::uint32_t(state.order.size());
   MemoryPlan plan;
+  plan.heaps = std::move(state.memory.heaps);  // its capacity, from an earlier compile
+  plan.heaps.clear();
   plan.from_device = device != nullptr;
 
   // Requirements, and the transients bucketed by first and last use (linked lists, no sort).
-  std::vector<gpu::MemoryRequirements> requirements(R);
-  std::vector<std::uint32_t> start_head(positions, invalid_index), end_head(positions, invalid_index);
-  std::vector<std::uint32_t> start_next(R, invalid_index), end_next(R, invalid_index);
+  CompileScratch& scratch = state.scratch;
+  std::vector<gpu::MemoryRequirements>& requirements = scratch.requirements;
+  requirements.assign(R, gpu::MemoryRequirements{});
+  std::vector<std::uint32_t>& start_head = scratch.start_head;
+  std::vector<std::uint32_t>& end_head = scratch.end_head;
+  std::vector<std::uint32_t>& start_next = scratch.start_next;
+  std::vector<std::uint32_t>& end_next = scratch.end_next;
+  start_head.assign(positions, invalid_index);
+  end_head.assign(positions, invalid_index);
+  start_next.assign(R, invalid_index);
+  end_next.assign(R, invalid_index);
   for (std::uint32_t r = R; r-- > 0;) {
     ResourceInfo& info = state.resources[r];
     info.heap = invalid_index;
@@ -200,7 +212,6 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
   }
 
   std::vector<HeapBuilder> heaps;
-  std::vector<std::uint32_t> previous;
   state.takeover_first.assign(R, 0);
   state.takeover_count.assign(R, 0);
   state.takeovers.clear();
@@ -215,13 +226,12 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
       HeapBuilder& h = heaps[heap];
       h.type_bits &= req.type_bits;
       const std::uint64_t offset = h.place(req.size, std::max<std::uint64_t>(req.alignment, 1));
-      previous.clear();
-      h.occupy(offset, req.size, r, previous);
+      const auto first_takeover = std::uint32_t(state.takeovers.size());
+      h.occupy(offset, req.size, r, state.takeovers, first_takeover);
       info.heap = heap;
       info.offset = offset;
-      state.takeover_first[r] = std::uint32_t(state.takeovers.size());
-      state.takeover_count[r] = std::uint32_t(previous.size());
-      state.takeovers.insert(state.takeovers.end(), previous.begin(), previous.end());
+      state.takeover_first[r] = first_takeover;
+      state.takeover_count[r] = std::uint32_t(state.takeovers.size()) - first_takeover;
     }
     if (!state.options.aliasing) continue;
     for (std::uint32_t r = end_head[pos]; r != invalid_index; r = end_next[r])
@@ -229,24 +239,27 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
         heaps[state.resources[r].heap].release(state.resources[r].offset, requirements[r].size);
   }
 
-  // Aliasing groups: resources connected by takeovers, numbered by their lowest index.
+  // Aliasing groups: resources connected by takeovers, numbered by their lowest index. Every
+  // union makes the lower root the parent, so a group's root is its lowest index, and a
+  // resource is in a group of two or more exactly when it took over or was taken over.
   if (!state.takeovers.empty()) {
-    std::vector<std::uint32_t> parent(R);
+    std::vector<std::uint32_t>& parent = scratch.parent;
+    std::vector<std::uint32_t>& group_of_root = scratch.group_of_root;
+    std::vector<std::uint32_t>& linked = scratch.members;
+    parent.resize(R);
     std::iota(parent.begin(), parent.end(), 0u);
+    linked.assign(R, 0);
     for (std::uint32_t r = 0; r < R; ++r)
       for (std::uint32_t i = state.takeover_first[r], end = i + state.takeover_count[r]; i < end; ++i) {
         const std::uint32_t a = find_root(parent, r), b = find_root(parent, state.takeovers[i]);
         parent[std::max(a, b)] = std::min(a, b);
+        linked[r] = linked[state.takeovers[i]] = 1;
       }
-    std::vector<std::uint32_t> group_of_root(R, invalid_index);
-    std::vector<std::uint32_t> members(R, 0);
-    for (std::uint32_t r = 0; r < R; ++r)
-      if (state.resources[r].heap != invalid_index) ++members[find_root(parent, r)];
+    group_of_root.assign(R, invalid_index);
     std::uint32_t groups = 0;
     for (std::uint32_t r = 0; r < R; ++r) {
-      if (state.resources[r].heap == invalid_index) continue;
+      if (!linked[r]) continue;
       const std::uint32_t root = find_root(parent, r);
-      if (members[root] < 2) continue;
       if (group_of_root[root] == invalid_index) group_of_root[root] = groups++;
       state.resources[r].alias_group = group_of_root[root];
     }

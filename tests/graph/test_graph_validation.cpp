@@ -2,6 +2,8 @@
 // lifetimes, aliasing, barriers and DOT — no GPU, runs in milliseconds.
 #include <doctest/doctest.h>
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -38,6 +40,87 @@ const GraphError& only_error(const GraphErrors& errors) {
 
 static_assert(!std::is_convertible_v<TextureHandle, BufferHandle>, "a texture handle is not a buffer handle");
 static_assert(!std::is_convertible_v<BufferHandle, TextureHandle>, "a buffer handle is not a texture handle");
+
+TEST_SUITE("graph reset") {
+  TEST_CASE("reset() forgets passes, resources, outputs, errors and blackboard entries") {
+    RenderGraph graph("frame");
+    graph.add_pass("broken", [](PassBuilder& b) { b.read(TextureHandle{7, 0}, TextureUse::Sampled); });
+    graph.blackboard().put("scene_color", TextureHandle{0, 1});
+    REQUIRE_FALSE(graph.compile(options));
+    graph.reset();
+    CHECK(graph.pass_count() == 0);
+    CHECK(graph.resource_count() == 0);
+    CHECK(graph.blackboard().keys().empty());
+    CHECK(graph.name() == "frame");
+
+    auto output = graph.import_texture("output", imported_desc(), gpu::Access::Undefined);
+    TextureHandle color;
+    graph.add_pass("scene", [&](PassBuilder& b) {
+      color = b.write(b.create_texture("scene_color", color_desc()), TextureUse::ColorAttachment);
+    });
+    graph.add_pass("present", [&](PassBuilder& b) {
+      b.read(color, TextureUse::Sampled);
+      output = b.write(output, TextureUse::ColorAttachment);
+    });
+    graph.mark_output(output);
+    auto compiled = graph.compile(options);
+    REQUIRE_MESSAGE(compiled, compiled.error().to_string());
+    CHECK(compiled->order().size() == 2);
+    CHECK(compiled->resources()[0].name == "output");
+    CHECK(compiled->resources()[1].name == "scene_color");
+    CHECK(compiled->barriers_before(0).size() == 1);
+
+    // Errors after a reset name the new passes and resources.
+    graph.reset();
+    graph.add_pass("reader", [&](PassBuilder& b) {
+      b.read(b.create_texture("never_written", color_desc()), TextureUse::Sampled);
+      b.side_effect();
+    });
+    auto failed = graph.compile(options);
+    REQUIRE_FALSE(failed);
+    const GraphError& e = only_error(failed.error());
+    CHECK(e.kind == GraphErrorKind::UnwrittenRead);
+    CHECK(e.passes == std::vector<std::string>{"reader"});
+    CHECK(e.resources == std::vector<std::string>{"never_written"});
+  }
+
+  TEST_CASE("reset() releases what execute callbacks captured, once no compiled graph needs it") {
+    struct Data {
+      TextureHandle target;
+    };
+    auto token = std::make_shared<int>(0);
+    auto add = [&](RenderGraph& graph) {
+      graph.add_pass<Data>(
+          "draw",
+          [](PassBuilder& b, Data& d) {
+            d.target = b.write(b.create_texture("target", color_desc()), TextureUse::ColorAttachment);
+            b.side_effect();
+          },
+          [token](const PassResources&, const Data&, PassContext&) {});
+    };
+    RenderGraph graph("frame");
+    add(graph);
+    CHECK(token.use_count() == 2);
+    graph.reset();
+    CHECK(token.use_count() == 1);
+
+    add(graph);
+    std::optional<CompiledGraph> kept;
+    {
+      auto compiled = graph.compile(options);
+      REQUIRE(compiled);
+      kept.emplace(std::move(*compiled));
+    }
+    graph.reset();  // the kept compiled graph still needs its pass
+    CHECK(token.use_count() == 2);
+    CHECK(kept->passes()[0].name == "draw");
+    add(graph);
+    CHECK(token.use_count() == 3);
+    kept.reset();
+    graph.reset();
+    CHECK(token.use_count() == 1);
+  }
+}
 
 TEST_SUITE("graph declaration") {
   TEST_CASE("writes return the next version and reads keep it") {
