@@ -374,7 +374,8 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
 
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   result.epochs_done = state.epoch;
-  result.final_loss = state.last_epoch_loss;
+  // A run that ends inside an epoch (a time budget, stop_after_steps) reports that epoch so far.
+  result.final_loss = state.epoch_count > 0.0 ? state.epoch_loss / state.epoch_count : state.last_epoch_loss;
   NeuralBtf& m = result.model;
   m.width = btf.width;
   m.height = btf.height;

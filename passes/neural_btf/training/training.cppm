@@ -146,7 +146,7 @@ struct TrainResult {
   Network network;
   Preprocessing preprocessing;        // what the encoder's inputs were standardised with
   std::size_t epochs_done = 0, steps_done = 0;
-  double final_loss = 0.0;            // the last epoch's mean squared error (targets' units)
+  double final_loss = 0.0;            // the last (or the unfinished) epoch's mean squared error (targets' units)
   double seconds = 0.0;               // this run's training time (clustering excluded)
   double cluster_seconds = 0.0;
   std::uint32_t clusters = 0;         // clusters actually used (k-means drops empty ones)
