@@ -34,6 +34,7 @@ import weft.scene;
 import weft.renderer;
 import weft.btf.model;
 import weft.pass.neural_btf;
+import weft.bench.device;
 
 using namespace weft;
 using Clock = std::chrono::steady_clock;
@@ -66,20 +67,7 @@ double cpu_ghz() {
 // FP32 FLOP per cycle per core: AVX2 with two FMA pipes (Zen 2/3, Haswell and later) = 2 x 8 x 2.
 constexpr double kFlopPerCycle = 32.0;
 
-struct Session {
-  gpu::Instance instance;
-  gpu::Adapter adapter;
-  gpu::Device device;
-};
-std::optional<Session> open_session() {
-  auto instance = gpu::Instance::create({.application_name = "weft-bench-btf-decode"});
-  if (!instance) return std::nullopt;
-  auto adapter = instance->request_adapter();
-  if (!adapter) return std::nullopt;
-  auto device = adapter->request_device();
-  if (!device) return std::nullopt;
-  return Session{std::move(*instance), std::move(*adapter), std::move(*device)};
-}
+using bench::Session;
 
 std::size_t multiply_adds(const btf::NeuralBtf& m) { return m.decoder.parameter_count(); }
 
@@ -290,7 +278,7 @@ int main(int argc, char** argv) {
               threads, ghz, threads, ghz, kFlopPerCycle, peak);
   if (o.wants("storage")) storage_table();
   if (o.wants("kernel") || o.wants("frame")) {
-    auto session = open_session();
+    auto session = bench::open_session("weft-bench-btf-decode");
     if (!session) {
       std::printf("\n(no Vulkan device: kernel and frame sections skipped)\n");
       return 0;

@@ -34,6 +34,7 @@ import weft.image;
 import weft.scene;
 import weft.renderer;
 import weft.pass.skin_sss;
+import weft.bench.device;
 
 using namespace weft;
 using skin::dvec3;
@@ -366,20 +367,7 @@ void mesh_table(const Options& o) {
 
 // ---- GPU sections ------------------------------------------------------------------------
 
-struct Session {
-  gpu::Instance instance;
-  gpu::Adapter adapter;
-  gpu::Device device;
-};
-std::optional<Session> open_session() {
-  auto instance = gpu::Instance::create({.application_name = "weft-bench-skin"});
-  if (!instance) return std::nullopt;
-  auto adapter = instance->request_adapter();
-  if (!adapter) return std::nullopt;
-  auto device = adapter->request_device();
-  if (!device) return std::nullopt;
-  return Session{std::move(*instance), std::move(*adapter), std::move(*device)};
-}
+using bench::Session;
 
 // A row of spheres of radius 1.5, 3, 6 and 12 mm (scene units are mm), one material.
 const double kSphereRadii[] = {1.5, 3.0, 6.0, 12.0};
@@ -662,7 +650,7 @@ int main(int argc, char** argv) {
   if (o.wants("time")) time_table(o.runs);
   if (o.wants("mesh")) mesh_table(o);
   if (o.wants("frame") || o.wants("curvature") || o.wants("image")) {
-    auto session = open_session();
+    auto session = bench::open_session("weft-bench-skin");
     if (!session) {
       std::printf("\n(no Vulkan device: frame and curvature sections skipped)\n");
       return 0;

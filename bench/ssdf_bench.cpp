@@ -384,20 +384,23 @@ int lighting_bench(int argc, char** argv) {
     (void)image::save_png(cache / "reference.png", out);
   }
 
-  // Bakes per resolution (visibility + distance transform once each).
+  // Bakes per resolution (visibility + distance transform once each), with the material's
+  // visibility options: the renderer loads these bakes under its own cache key, so they must
+  // be the bakes it would make (below-horizon directions visible, as the material sets).
   struct Raw {
     ssdf::BakeMesh probes;
     cluster::Matrix ssdf;
   };
   std::map<std::uint32_t, Raw> raws;
-  auto raw_for = [&](std::uint32_t resolution) -> const Raw* {
+  auto raw_for = [&](std::uint32_t resolution, ssdf::VisibilityOptions visibility) -> const Raw* {
     if (auto it = raws.find(resolution); it != raws.end()) return &it->second;
     auto occluders = ssdf::merge_scene(s);
     auto probes = ssdf::merge_objects(s, objects);
     if (!occluders || !probes) return nullptr;
     const ssdf::DirectionGrid grid(resolution);
     auto start = std::chrono::steady_clock::now();
-    auto vis = ssdf::bake_visibility(*occluders, ssdf::vertex_probes(*probes), grid, {.progress = false});
+    visibility.progress = false;
+    auto vis = ssdf::bake_visibility(*occluders, ssdf::vertex_probes(*probes), grid, visibility);
     if (!vis) return nullptr;
     const double vis_s = seconds_since(start);
     start = std::chrono::steady_clock::now();
@@ -466,7 +469,7 @@ int lighting_bench(int argc, char** argv) {
       std::fprintf(stderr, "%s: %s\n", row.name.c_str(), parsed.error().what().c_str());
       return 1;
     }
-    const Raw* raw = raw_for(parsed->bake.resolution);
+    const Raw* raw = raw_for(parsed->bake.resolution, parsed->bake.visibility);
     if (!raw) return 1;
     const auto file = cache / ("ssdf-" + hex64(ssdf::bake_key(s, objects, parsed->bake)) + ".wssdf");
     auto known = compressed.find(file.string());
