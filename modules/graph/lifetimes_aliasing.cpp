@@ -49,15 +49,33 @@ struct HeapBuilder {
   std::vector<Segment> segments;
 
   // Best fit among the free runs, else at the end of the heap (growing it, starting inside
-  // the trailing free run when there is one).
-  std::uint64_t place(std::uint64_t bytes, std::uint64_t alignment) {
+  // the trailing free run when there is one). The common cases of a frame -- nothing free (a
+  // new slot at the end) and a free run that fits exactly (a chain reusing the memory of a
+  // resource two passes back) -- touch only the ends of the arrays; every case places where
+  // the general best-fit search would.
+  // Returns the offset; `appended` is set when the resource got a fresh slot at the end of
+  // the heap with no padding, whose segment place() has already recorded (occupy() not needed).
+  std::uint64_t place(std::uint64_t bytes, std::uint64_t alignment, std::uint32_t resource, bool& appended) {
+    appended = false;
+    if (free.empty() && bytes > 0) {
+      const std::uint64_t at = align_up(size, alignment);
+      if (at == size) {
+        size = at + bytes;
+        segments.push_back(Segment{at, size, resource});
+        appended = true;
+        return at;
+      }
+    }
     constexpr std::uint64_t none = ~0ull;
     std::uint64_t best = none, best_size = none;
-    for (const Range& f : free) {
+    std::size_t best_run = 0;
+    for (std::size_t i = 0, n = free.size(); i < n; ++i) {
+      const Range& f = free[i];
       const std::uint64_t at = align_up(f.begin, alignment);
       if (at + bytes <= f.end && f.end - f.begin < best_size) {
         best = at;
         best_size = f.end - f.begin;
+        best_run = i;
       }
     }
     if (best == none) {
@@ -68,10 +86,10 @@ struct HeapBuilder {
       else free.push_back(Range{size, grown});
       segments.push_back(Segment{size, grown, invalid_index});
       size = grown;
+      best_run = free.size() - 1;
     }
     // Carve [best, best + bytes) out of the free run holding it.
-    auto run = std::upper_bound(free.begin(), free.end(), best, [](std::uint64_t x, const Range& r) { return x < r.begin; });
-    --run;
+    const auto run = free.begin() + std::ptrdiff_t(best_run);
     const Range whole = *run;
     const Range left{whole.begin, best}, right{best + bytes, whole.end};
     if (left.end > left.begin && right.end > right.begin) {
@@ -81,6 +99,8 @@ struct HeapBuilder {
       *run = left;
     } else if (right.end > right.begin) {
       *run = right;
+    } else if (best_run + 1 == free.size()) {
+      free.pop_back();
     } else {
       free.erase(run);
     }
@@ -89,6 +109,12 @@ struct HeapBuilder {
 
   void release(std::uint64_t offset, std::uint64_t bytes) {
     Range r{offset, offset + bytes};
+    // Past every free run (or none): join the last one or append, no search.
+    if (free.empty() || free.back().end <= r.begin) {
+      if (!free.empty() && free.back().end == r.begin) free.back().end = r.end;
+      else free.push_back(r);
+      return;
+    }
     auto at = std::upper_bound(free.begin(), free.end(), offset, [](std::uint64_t x, const Range& f) { return x < f.begin; });
     const bool join_previous = at != free.begin() && (at - 1)->end == r.begin;
     const bool join_next = at != free.end() && at->begin == r.end;
@@ -110,6 +136,11 @@ struct HeapBuilder {
               std::size_t previous_begin) {
     const std::uint64_t end = offset + bytes;
     auto first = std::partition_point(segments.begin(), segments.end(), [&](const Segment& s) { return s.end <= offset; });
+    if (bytes > 0 && first != segments.end() && first->begin == offset && first->end == end) {  // exactly one earlier occupant
+      if (first->occupant != invalid_index) previous.push_back(first->occupant);
+      first->occupant = resource;
+      return;
+    }
     auto last = first;
     for (; last != segments.end() && last->begin < end; ++last)
       if (last->occupant != invalid_index &&
@@ -177,6 +208,9 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
   end_head.assign(positions, invalid_index);
   start_next.assign(R, invalid_index);
   end_next.assign(R, invalid_index);
+  ResourceInfo last;  // the texture last_requirements was estimated for
+  gpu::MemoryRequirements last_requirements{};
+  bool have_last = false;
   for (std::uint32_t r = R; r-- > 0;) {
     ResourceInfo& info = state.resources[r];
     info.heap = invalid_index;
@@ -187,7 +221,19 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
     const bool custom = info.type == ResourceType::Texture ? bool(state.options.texture_requirements)
                                                            : bool(state.options.buffer_requirements);
     if (device == nullptr && !custom) {
-      requirements[r] = estimate_requirements(info);
+      // Frames repeat descriptors (a chain of full-screen targets): estimate each once in a row.
+      if (info.type == ResourceType::Texture) {
+        if (!have_last || info.extent.width != last.extent.width || info.extent.height != last.extent.height ||
+            info.extent.depth_or_layers != last.extent.depth_or_layers || info.format != last.format ||
+            info.mip_level_count != last.mip_level_count || info.dimension != last.dimension) {
+          last = info;
+          last_requirements = estimate_requirements(info);
+          have_last = true;
+        }
+        requirements[r] = last_requirements;
+      } else {
+        requirements[r] = estimate_requirements(info);
+      }
     } else {
       const gpu::BufferDescriptor buffer_desc{std::string(info.name), info.buffer_size, info.buffer_usage};
       Result<gpu::MemoryRequirements> req =
@@ -211,6 +257,16 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
     end_head[info.last_use] = r;
   }
 
+  // Aliasing groups: resources connected by takeovers, numbered by their lowest index. Every
+  // union makes the lower root the parent, so a group's root is its lowest index, and a
+  // resource is in a group of two or more exactly when it took over or was taken over. The
+  // unions happen as the takeovers are found.
+  std::vector<std::uint32_t>& parent = scratch.parent;
+  std::vector<std::uint32_t>& linked = scratch.members;
+  parent.resize(R);
+  std::iota(parent.begin(), parent.end(), 0u);
+  linked.assign(R, 0);
+
   std::vector<HeapBuilder> heaps;
   state.takeover_first.assign(R, 0);
   state.takeover_count.assign(R, 0);
@@ -225,13 +281,19 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
       if (heap == heaps.size()) heaps.push_back(HeapBuilder{info.type, req.type_bits});
       HeapBuilder& h = heaps[heap];
       h.type_bits &= req.type_bits;
-      const std::uint64_t offset = h.place(req.size, std::max<std::uint64_t>(req.alignment, 1));
+      bool appended = false;
+      const std::uint64_t offset = h.place(req.size, std::max<std::uint64_t>(req.alignment, 1), r, appended);
       const auto first_takeover = std::uint32_t(state.takeovers.size());
-      h.occupy(offset, req.size, r, state.takeovers, first_takeover);
+      if (!appended) h.occupy(offset, req.size, r, state.takeovers, first_takeover);
       info.heap = heap;
       info.offset = offset;
       state.takeover_first[r] = first_takeover;
       state.takeover_count[r] = std::uint32_t(state.takeovers.size()) - first_takeover;
+      for (std::uint32_t i = first_takeover, end = std::uint32_t(state.takeovers.size()); i < end; ++i) {
+        const std::uint32_t a = find_root(parent, r), b = find_root(parent, state.takeovers[i]);
+        parent[std::max(a, b)] = std::min(a, b);
+        linked[r] = linked[state.takeovers[i]] = 1;
+      }
     }
     if (!state.options.aliasing) continue;
     for (std::uint32_t r = end_head[pos]; r != invalid_index; r = end_next[r])
@@ -239,22 +301,8 @@ void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device
         heaps[state.resources[r].heap].release(state.resources[r].offset, requirements[r].size);
   }
 
-  // Aliasing groups: resources connected by takeovers, numbered by their lowest index. Every
-  // union makes the lower root the parent, so a group's root is its lowest index, and a
-  // resource is in a group of two or more exactly when it took over or was taken over.
   if (!state.takeovers.empty()) {
-    std::vector<std::uint32_t>& parent = scratch.parent;
     std::vector<std::uint32_t>& group_of_root = scratch.group_of_root;
-    std::vector<std::uint32_t>& linked = scratch.members;
-    parent.resize(R);
-    std::iota(parent.begin(), parent.end(), 0u);
-    linked.assign(R, 0);
-    for (std::uint32_t r = 0; r < R; ++r)
-      for (std::uint32_t i = state.takeover_first[r], end = i + state.takeover_count[r]; i < end; ++i) {
-        const std::uint32_t a = find_root(parent, r), b = find_root(parent, state.takeovers[i]);
-        parent[std::max(a, b)] = std::min(a, b);
-        linked[r] = linked[state.takeovers[i]] = 1;
-      }
     group_of_root.assign(R, invalid_index);
     std::uint32_t groups = 0;
     for (std::uint32_t r = 0; r < R; ++r) {
