@@ -91,8 +91,7 @@ class Scheduler {
     init_resources();
     scan_accesses();
     cull();
-    order();
-    lifetimes();
+    order_and_lifetimes();
     check_usages();
     check_attachments();
   }
@@ -122,6 +121,9 @@ class Scheduler {
     resource_uses_.assign(R, 0);
     const gpu::Extent3D output = s_.options.output_extent;
     const bool have_output = output.width > 0 && output.height > 0;
+    RelativeSize last_relative{};
+    gpu::Extent3D last_resolved{};
+    bool have_last_relative = false;
     for (std::uint32_t r = 0; r < R; ++r) {
       const ResourceNode& node = g_.resources[r];
       ResourceInfo& info = s_.resources[r];
@@ -140,7 +142,14 @@ class Scheduler {
                 {resource_name(r)});
         }
         if (d.size.is_relative) {
-          info.extent = d.size.resolve(have_output ? output : gpu::Extent3D{1, 1, 1});
+          // Most relative sizes repeat (full-screen targets): resolve each once in a row.
+          if (!have_last_relative || d.size.relative.width != last_relative.width ||
+              d.size.relative.height != last_relative.height) {
+            last_relative = d.size.relative;
+            last_resolved = d.size.resolve(have_output ? output : gpu::Extent3D{1, 1, 1});
+            have_last_relative = true;
+          }
+          info.extent = last_resolved;
         } else {
           info.extent = d.size.absolute;
           info.extent.depth_or_layers = std::max(1u, d.size.absolute.depth_or_layers);
@@ -180,7 +189,7 @@ class Scheduler {
         if (v.producer != invalid_index && v.producer > p) backward_edge_ = true;
         if (a.reads && v.next_writer != invalid_index && v.next_writer != p && v.next_writer < p)
           backward_edge_ = true;
-        writes_import = writes_import || (a.writes() && a.imported);
+        writes_import = writes_import || (a.imported && a.writes());
       }
       alive_[p] = pass.side_effect || writes_import;  // a root of cull()
     }
@@ -260,18 +269,86 @@ class Scheduler {
     }
   }
 
-  void order() {
+  // Orders the passes and finds each resource's lifetime, and whether each render pass's
+  // attachments agree in size (reported by check_attachments()). When declaration order is
+  // already valid, one sweep does all three.
+  void order_and_lifetimes() {
     const std::uint32_t P = s_.pass_count;
     s_.order.clear();
     s_.order.reserve(P);
+    std::vector<std::uint8_t>& mismatch = s_.scratch.attachment_mismatch;
+    mismatch.assign(P, 0);
     if (!backward_edge_) {
-      for (std::uint32_t p = 0; p < P; ++p)
-        if (alive_[p]) s_.order.push_back(p);
+      for (std::uint32_t p = 0; p < P; ++p) {
+        PassInfo& info = s_.passes[p];
+        info.culled = !alive_[p];
+        if (!alive_[p]) {
+          if (pass_texture_uses_[p] & attachment_uses) mismatch[p] = attachments_mismatch(p);
+          continue;
+        }
+        const auto pos = std::uint32_t(s_.order.size());
+        info.order_position = pos;
+        s_.order.push_back(p);
+        use_at(p, pos, mismatch[p]);
+      }
     } else {
       ordered_by_edges();
+      for (std::uint32_t p = 0; p < P; ++p) s_.passes[p].culled = !alive_[p];
+      for (std::uint32_t i = 0; i < s_.order.size(); ++i) {
+        s_.passes[s_.order[i]].order_position = i;
+        use_at(s_.order[i], i, mismatch[s_.order[i]]);
+      }
+      for (std::uint32_t p = 0; p < P; ++p)  // culled, or left out of the order by a cycle
+        if (s_.passes[p].order_position == invalid_index && (pass_texture_uses_[p] & attachment_uses))
+          mismatch[p] = attachments_mismatch(p);
     }
-    for (std::uint32_t p = 0; p < P; ++p) s_.passes[p].culled = !alive_[p];
-    for (std::uint32_t i = 0; i < s_.order.size(); ++i) s_.passes[s_.order[i]].order_position = i;
+    // Outputs are read after the frame: keep their memory to the end.
+    const auto last = std::uint32_t(s_.order.size()) - 1;
+    for (const OutputNode& out : g_.outputs)
+      if (out.resource < s_.resource_count && s_.resources[out.resource].used) s_.resources[out.resource].last_use = last;
+  }
+
+  // Pass p runs at order position pos: extends the lifetimes of what it uses, and compares
+  // the sizes of its attachments.
+  void use_at(std::uint32_t p, std::uint32_t pos, std::uint8_t& mismatch) {
+    const PassNode& pass = g_.passes[p];
+    const bool attachments = (pass_texture_uses_[p] & attachment_uses) != 0;
+    std::uint32_t first_attachment = invalid_index;
+    bool differ = false;
+    for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+      const AccessNode& a = g_.accesses[i];
+      ResourceInfo& info = s_.resources[a.resource];
+      if (!info.used) {
+        info.used = true;
+        info.first_use = pos;
+      }
+      info.last_use = pos;
+      if (!attachments || !a.texture || !(a.uses & attachment_uses)) continue;
+      if (first_attachment == invalid_index) {
+        first_attachment = a.resource;
+        continue;
+      }
+      const gpu::Extent3D x = s_.resources[first_attachment].extent, y = info.extent;
+      differ = differ || x.width != y.width || x.height != y.height;
+    }
+    mismatch = differ ? 1 : 0;
+  }
+
+  [[nodiscard]] bool attachments_mismatch(std::uint32_t p) const {
+    const PassNode& pass = g_.passes[p];
+    std::uint32_t first = invalid_index;
+    bool differ = false;
+    for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+      const AccessNode& a = g_.accesses[i];
+      if (!a.texture || !(a.uses & attachment_uses)) continue;
+      if (first == invalid_index) {
+        first = a.resource;
+        continue;
+      }
+      const gpu::Extent3D x = s_.resources[first].extent, y = s_.resources[a.resource].extent;
+      differ = differ || x.width != y.width || x.height != y.height;
+    }
+    return differ;
   }
 
   // Kahn's algorithm over every pass (so cycles among culled passes are reported too), the
@@ -423,25 +500,6 @@ class Scheduler {
     error(GraphErrorKind::Cycle, std::move(message), std::move(passes), std::move(resources));
   }
 
-  void lifetimes() {
-    for (std::uint32_t pos = 0; pos < s_.order.size(); ++pos) {
-      const PassNode& pass = g_.passes[s_.order[pos]];
-      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
-        const AccessNode& a = g_.accesses[i];
-        ResourceInfo& info = s_.resources[a.resource];
-        if (!info.used) {
-          info.used = true;
-          info.first_use = pos;
-        }
-        info.last_use = pos;
-      }
-    }
-    // Outputs are read after the frame: keep their memory to the end.
-    const auto last = std::uint32_t(s_.order.size()) - 1;
-    for (const OutputNode& out : g_.outputs)
-      if (out.resource < s_.resource_count && s_.resources[out.resource].used) s_.resources[out.resource].last_use = last;
-  }
-
   void check_usages() {
     for (std::uint32_t r = 0; r < s_.resource_count; ++r) {
       const ResourceNode& node = g_.resources[r];
@@ -537,22 +595,10 @@ class Scheduler {
   }
 
   void check_attachments() {
+    const std::vector<std::uint8_t>& mismatch = s_.scratch.attachment_mismatch;  // from order_and_lifetimes()
     for (std::uint32_t p = 0; p < s_.pass_count; ++p) {
-      if (!(pass_texture_uses_[p] & attachment_uses)) continue;
+      if (!mismatch[p]) continue;
       const PassNode& pass = g_.passes[p];
-      std::uint32_t first = invalid_index;
-      bool mismatch = false;
-      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
-        const AccessNode& a = g_.accesses[i];
-        if (!a.texture || !(a.uses & attachment_uses)) continue;
-        if (first == invalid_index) {
-          first = a.resource;
-          continue;
-        }
-        const gpu::Extent3D x = s_.resources[first].extent, y = s_.resources[a.resource].extent;
-        mismatch = mismatch || x.width != y.width || x.height != y.height;
-      }
-      if (!mismatch) continue;
       std::string list;
       std::vector<std::string> names;
       for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {

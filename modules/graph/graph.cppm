@@ -692,7 +692,9 @@ struct AccessNode {
   bool reads = false;
   bool texture = false;   // copies of the resource's type and import flag: compile's hot loops
   bool imported = false;  // then never touch the (large) resource records
-  [[nodiscard]] bool writes() const { return out_slot != invalid_index; }
+  // inline: a member defined in a module's class is not implicitly inline, and compile's
+  // loops call this per access.
+  [[nodiscard]] inline bool writes() const { return out_slot != invalid_index; }
 };
 
 struct OutputNode {
@@ -735,7 +737,7 @@ struct GraphData {
 
 // compile()'s working memory, kept with the compiled state so that a recompile reuses it.
 struct CompileScratch {
-  std::vector<std::uint8_t> alive;
+  std::vector<std::uint8_t> alive, attachment_mismatch;
   std::vector<std::uint16_t> pass_texture_uses, pass_buffer_uses, resource_uses;
   std::vector<std::uint32_t> stack;
   std::vector<gpu::MemoryRequirements> requirements;
