@@ -1,7 +1,9 @@
 // Device-free graph suite: declaration, every error class, culling, ordering, blackboard,
 // lifetimes, aliasing, barriers and DOT — no GPU, runs in milliseconds.
 #include <doctest/doctest.h>
+#include <algorithm>
 #include <cstdint>
+#include <random>
 #include <memory>
 #include <optional>
 #include <string>
@@ -961,5 +963,141 @@ TEST_SUITE("graph introspection") {
     CHECK(contains(dump, "render graph 'golden': 5 passes (1 culled), 5 resources"));
     CHECK(contains(dump, "culled: debug"));
     CHECK(contains(dump, "barrier t2: undefined -> color-attachment (takes over memory of t0, moved shader-read -> storage-read)"));
+  }
+}
+
+namespace {
+
+// The memory planner's first design, kept as the reference for its fast paths: per heap type,
+// walking the order, place each transient at its first use into the smallest free run that
+// fits (else at the end of the heap, growing the trailing free run), free it after its last
+// use. Returns the offset of every transient (0 for the rest).
+std::vector<std::uint64_t> reference_offsets(const CompiledGraph& g) {
+  struct Range {
+    std::uint64_t begin, end;
+  };
+  const auto resources = g.resources();
+  std::vector<std::uint64_t> offsets(resources.size(), 0);
+  const auto positions = std::uint32_t(g.order().size());
+  for (ResourceType type : {ResourceType::Texture, ResourceType::Buffer}) {
+    const std::uint64_t alignment = type == ResourceType::Texture ? 64 * 1024 : 256;
+    std::vector<Range> free;
+    std::uint64_t size = 0;
+    for (std::uint32_t pos = 0; pos < positions; ++pos) {
+      for (std::size_t r = 0; r < resources.size(); ++r) {
+        const ResourceInfo& info = resources[r];
+        if (info.type != type || info.heap == invalid_index || info.first_use != pos) continue;
+        const std::uint64_t bytes = info.bytes;
+        std::uint64_t best = ~0ull, best_size = ~0ull;
+        for (const Range& f : free) {
+          const std::uint64_t at = (f.begin + alignment - 1) / alignment * alignment;
+          if (at + bytes <= f.end && f.end - f.begin < best_size) {
+            best = at;
+            best_size = f.end - f.begin;
+          }
+        }
+        if (best == ~0ull) {
+          const bool trailing = !free.empty() && free.back().end == size;
+          best = ((trailing ? free.back().begin : size) + alignment - 1) / alignment * alignment;
+          if (trailing) free.back().end = best + bytes;
+          else free.push_back({size, best + bytes});
+          size = best + bytes;
+        }
+        std::size_t i = 0;
+        while (!(free[i].begin <= best && best + bytes <= free[i].end)) ++i;
+        const Range whole = free[i];
+        free.erase(free.begin() + std::ptrdiff_t(i));
+        if (best + bytes < whole.end) free.insert(free.begin() + std::ptrdiff_t(i), Range{best + bytes, whole.end});
+        if (whole.begin < best) free.insert(free.begin() + std::ptrdiff_t(i), Range{whole.begin, best});
+        offsets[r] = best;
+      }
+      for (std::size_t r = 0; r < resources.size(); ++r) {
+        const ResourceInfo& info = resources[r];
+        if (info.type != type || info.heap == invalid_index || info.last_use != pos) continue;
+        free.push_back({info.offset, info.offset + info.bytes});
+        std::sort(free.begin(), free.end(), [](const Range& a, const Range& b) { return a.begin < b.begin; });
+        std::vector<Range> merged;
+        for (const Range& f : free) {
+          if (!merged.empty() && merged.back().end == f.begin) merged.back().end = f.end;
+          else merged.push_back(f);
+        }
+        free = merged;
+      }
+    }
+  }
+  return offsets;
+}
+
+}  // namespace
+
+TEST_CASE("memory planner: fast paths place a chain in two alternating slots, one alias group each") {
+  RenderGraph graph("chain");
+  TextureHandle previous;
+  for (int i = 0; i < 8; ++i) {
+    graph.add_pass("p" + std::to_string(i), [&](PassBuilder& b) {
+      if (previous.valid()) b.read(previous, TextureUse::Sampled);
+      previous = b.write(b.create_texture("t" + std::to_string(i), color_desc()), TextureUse::ColorAttachment);
+    });
+  }
+  graph.mark_output(previous);
+  auto compiled = graph.compile();
+  REQUIRE(compiled.has_value());
+  const auto resources = compiled->resources();
+  const std::uint64_t slot = resources[0].bytes;
+  for (std::size_t i = 0; i < 8; ++i) {
+    CHECK(resources[i].offset == (i % 2) * slot);
+    if (i < 6) CHECK(resources[i].alias_group == std::uint32_t(i % 2));
+  }
+  CHECK(compiled->memory().aliased_bytes == 2 * slot);
+  CHECK(reference_offsets(*compiled) == std::vector<std::uint64_t>(
+                                            [&] {
+                                              std::vector<std::uint64_t> v;
+                                              for (const ResourceInfo& r : resources) v.push_back(r.offset);
+                                              return v;
+                                            }()));
+}
+
+TEST_CASE("memory planner: random graphs of mixed sizes place exactly as plain best fit, without overlaps") {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 300; ++trial) {
+    RenderGraph graph("mixed");
+    std::vector<TextureHandle> textures;
+    std::vector<BufferHandle> buffers;
+    const int n = std::uniform_int_distribution<int>(2, 40)(rng);
+    for (int i = 0; i < n; ++i) {
+      graph.add_pass("p" + std::to_string(i), [&](PassBuilder& b) {
+        const int reads = textures.empty() ? 0 : std::uniform_int_distribution<int>(0, 3)(rng);
+        for (int k = 0; k < reads; ++k) {
+          const auto j = std::uniform_int_distribution<std::size_t>(0, textures.size() - 1)(rng);
+          b.read(textures[j], TextureUse::Sampled);
+        }
+        if (!buffers.empty() && rng() % 2) b.read(buffers[rng() % buffers.size()], BufferUse::Uniform);
+        if (rng() % 4 == 0) {
+          buffers.push_back(b.write(b.create_buffer("b" + std::to_string(i), {.size = 256u * (1 + rng() % 40)}),
+                                    BufferUse::StorageWrite));
+        } else {
+          const std::uint32_t side = 32u << (rng() % 4);
+          const auto t = b.create_texture("t" + std::to_string(i), color_desc(side, side));
+          textures.push_back(b.write(t, TextureUse::StorageWrite));
+        }
+        if (rng() % 5 == 0) b.side_effect();
+      });
+    }
+    if (!textures.empty()) graph.mark_output(textures.back());
+    auto compiled = graph.compile();
+    REQUIRE(compiled.has_value());
+    const auto resources = compiled->resources();
+    const auto expected = reference_offsets(*compiled);
+    for (std::size_t r = 0; r < resources.size(); ++r) {
+      if (resources[r].heap == invalid_index) continue;
+      CHECK_MESSAGE(resources[r].offset == expected[r], "trial ", trial, ": ", resources[r].name);
+      for (std::size_t q = r + 1; q < resources.size(); ++q) {
+        const ResourceInfo &a = resources[r], &b = resources[q];
+        if (b.heap != a.heap) continue;
+        const bool live_together = a.first_use <= b.last_use && b.first_use <= a.last_use;
+        const bool overlap = a.offset < b.offset + b.bytes && b.offset < a.offset + a.bytes;
+        CHECK_FALSE_MESSAGE((live_together && overlap), a.name, " and ", b.name);
+      }
+    }
   }
 }
