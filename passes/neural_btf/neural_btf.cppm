@@ -79,8 +79,10 @@ inline constexpr std::uint32_t kBtfMaxWidth = 128;
 Result<std::vector<std::uint32_t>> pack_model(const btf::NeuralBtf& model);
 
 // The paper's decoder shape (latent 8; 12 -> 106 -> 106 -> 106 -> 3), which the shaders also
-// have compiled in with every loop unrolled (BTF_PAPER_SHAPE in btf_decode.glsl): on lavapipe
-// that variant is several times faster than the generic one, which loops over the shape.
+// have compiled in with the inner loops unrolled (BTF_PAPER_SHAPE in btf_decode.glsl). Measured
+// on lavapipe (weft-bench-btf-decode kernel, docs/neural-btf.md) it is NOT faster than the
+// generic variant, which loops over the shape: 1.6 against 2.3 GFLOP/s; kept, and compared
+// there, because a real GPU's compiler may disagree.
 [[nodiscard]] bool is_paper_shape(const btf::NeuralBtf& model);
 
 // A model on the GPU and which shader variant decodes it.
