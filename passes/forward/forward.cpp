@@ -135,9 +135,9 @@ Result<void> ForwardPass::add(RenderGraph& graph, std::span<const frame::DrawIte
           return material_groups.back().second;
         };
         for (const auto& item : items) {
-          const auto* group = material_group(item.base_color_texture);
-          if (!group) break;
-          pass.set_bind_group(1, *group);
+          const auto* item_group = material_group(item.base_color_texture);
+          if (!item_group) break;
+          pass.set_bind_group(1, *item_group);
           const auto& m = item.material;
           pass.push(DrawConstants{item.model, vec4(m.base_color, m.metallic), vec4(m.roughness, m.emissive)});
           pass.set_vertex_buffer(0, item.mesh->vertices);
