@@ -79,10 +79,11 @@ inline constexpr std::uint32_t kBtfMaxWidth = 128;
 Result<std::vector<std::uint32_t>> pack_model(const btf::NeuralBtf& model);
 
 // The paper's decoder shape (latent 8; 12 -> 106 -> 106 -> 106 -> 3), which the shaders also
-// have compiled in with the inner loops unrolled (BTF_PAPER_SHAPE in btf_decode.glsl). Measured
-// on lavapipe (weft-bench-btf-decode kernel, docs/neural-btf.md) it is NOT faster than the
-// generic variant, which loops over the shape: 1.6 against 2.3 GFLOP/s; kept, and compared
-// there, because a real GPU's compiler may disagree.
+// have compiled in with the inner loops unrolled (BTF_PAPER_SHAPE in btf_decode.glsl). On
+// lavapipe that variant measured SLOWER than the generic one, which loops over the shape
+// (kernel 1.6 against 2.3 GFLOP/s; fragment 3.0 against 5-7.6, weft-bench-btf-decode,
+// docs/neural-btf.md), so models use the generic variant unless asked; the unrolled one is
+// kept for comparison on real GPUs, whose compilers were not available to measure.
 [[nodiscard]] bool is_paper_shape(const btf::NeuralBtf& model);
 
 // A model on the GPU and which shader variant decodes it.
@@ -90,9 +91,9 @@ struct GpuBtfModel {
   gpu::Buffer buffer;
   bool paper_shape = false;  // use the unrolled variant
 };
-// `allow_unrolled` = false forces the generic variant (the benchmark's comparison).
+// `allow_unrolled` = true decodes a paper-shaped model with the unrolled variant.
 Result<GpuBtfModel> upload_model(gpu::Device& device, const btf::NeuralBtf& model, std::string_view label,
-                                 bool allow_unrolled = true);
+                                 bool allow_unrolled = false);
 
 // One decode query: ω_i and ω_o in the tangent frame (need not be normalised) and a texel.
 struct DecodeQuery {
