@@ -56,6 +56,7 @@ struct Renderer::State {
   std::optional<gpu::Buffer> uniforms;
   std::optional<gpu::Texture> output;
   std::optional<gpu::Buffer> hdr_readback;  // RenderOptions::read_hdr: the scene colour, RGBA16F
+  std::optional<RenderGraph> frame_graph;    // reset and rebuilt every frame
 
   // Features, created the first time a scene uses their material type.
   std::map<scene::MaterialType, std::unique_ptr<FeaturePass>> features;
@@ -76,7 +77,7 @@ struct Renderer::State {
   Result<void> upload_scene(const scene::Scene& scene);
   const gpu::TextureView* base_color_texture(const scene::Texture& texture, std::string_view material);
   Result<void> prepare(const scene::Scene& scene, const RenderOptions& options, std::uint32_t w, std::uint32_t h);
-  Result<std::pair<RenderGraph, TextureHandle>> build_graph(const scene::Scene& scene, const RenderOptions& options,
+  Result<std::pair<RenderGraph*, TextureHandle>> build_graph(const scene::Scene& scene, const RenderOptions& options,
                                                             bool key_light);
 };
 
@@ -276,9 +277,15 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
   return {};
 }
 
-Result<std::pair<RenderGraph, TextureHandle>> Renderer::State::build_graph(const scene::Scene& scene,
-                                                                           const RenderOptions& options, bool key_light) {
-  RenderGraph graph("frame");
+Result<std::pair<RenderGraph*, TextureHandle>> Renderer::State::build_graph(const scene::Scene& scene,
+                                                                            const RenderOptions& options, bool key_light) {
+  // One graph, reset and refilled every frame: its arrays, arena and compile state are reused
+  // (RenderGraph::reset), so a steady frame's setup and compile allocate next to nothing.
+  if (frame_graph)
+    frame_graph->reset();
+  else
+    frame_graph.emplace("frame");
+  RenderGraph& graph = *frame_graph;
   auto& board = graph.blackboard();
   board.put("frame_uniforms", graph.import_buffer("frame_uniforms", &*uniforms, gpu::Access::UniformRead));
   board.put("environment", graph.import_texture("environment", &*environment, gpu::Access::ShaderRead));
@@ -318,7 +325,7 @@ Result<std::pair<RenderGraph, TextureHandle>> Renderer::State::build_graph(const
                            .tone_operator = options.aces ? passes::ToneOperator::Aces : passes::ToneOperator::Clamp});
   if (!out) return std::unexpected(out.error());
   graph.mark_output(*out, gpu::Access::CopySrc);
-  return std::pair{std::move(graph), *out};
+  return std::pair{&graph, *out};
 }
 
 Result<Renderer> Renderer::create(gpu::Device& device) {
@@ -359,7 +366,7 @@ Result<GraphReport> Renderer::describe(const scene::Scene& scene, const RenderOp
   if (auto ok = s.prepare(scene, options, size->first, size->second); !ok) return std::unexpected(ok.error());
   auto built = s.build_graph(scene, options, key);
   if (!built) return std::unexpected(built.error());
-  auto compiled = built->first.compile({.output_extent = {size->first, size->second, 1}, .device = s.device});
+  auto compiled = built->first->compile({.output_extent = {size->first, size->second, 1}, .device = s.device});
   if (!compiled) return std::unexpected(compiled.error().to_error());
   GraphReport report{compiled->to_dot(), compiled->dump(), {}, {}};
   for (auto index : compiled->order()) report.passes.emplace_back(compiled->passes()[index].name);
@@ -379,7 +386,7 @@ Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& o
   if (auto ok = s.prepare(scene, options, w, h); !ok) return std::unexpected(ok.error());
   auto built = s.build_graph(scene, options, key);
   if (!built) return std::unexpected(built.error());
-  auto compiled = built->first.compile({.output_extent = {w, h, 1}, .device = s.device});
+  auto compiled = built->first->compile({.output_extent = {w, h, 1}, .device = s.device});
   if (!compiled) return std::unexpected(compiled.error().to_error());
   auto stats = compiled->execute(*s.device, {.timestamps = options.timestamps});
   if (!stats) return std::unexpected(stats.error());
