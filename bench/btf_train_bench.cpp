@@ -110,17 +110,8 @@ int main(int argc, char** argv) {
               train_l.size(), train_v.size(), btf.samples_per_texel() - train_l.size() * train_v.size(),
               btf.samples_per_texel(), minutes, directions ? std::to_string(directions).c_str() : "all");
 
-  {
-    // The best constant (each channel's mean) scores the data's deviation: what a model that
-    // learnt nothing would get.
-    double mean[3] = {0, 0, 0}, sq = 0.0;
-    const double samples = double(btf.rgb.size() / 3);
-    for (std::size_t i = 0; i < btf.rgb.size(); ++i) mean[i % 3] += btf.rgb[i] / samples;
-    for (std::size_t i = 0; i < btf.rgb.size(); ++i) sq += (btf.rgb[i] - mean[i % 3]) * (btf.rgb[i] - mean[i % 3]);
-    std::printf("the best constant (per-channel mean) scores RMSE %.4f; learning rate %s\n",
-                std::sqrt(sq / double(btf.rgb.size())),
-                learning_rate > 0.0f ? std::to_string(learning_rate).c_str() : "the paper's (0.05 plain, 0.08 clustered)");
-  }
+  std::printf("the best constant (per-channel mean) scores RMSE %.4f; learning rate %s\n", constant_rmse(btf),
+              learning_rate > 0.0f ? std::to_string(learning_rate).c_str() : "the paper's (0.05 plain, 0.08 clustered)");
   std::printf("\n| model | k | fp32 KiB (issue's count) | ratio | compact KiB | ratio | RMSE trained | RMSE held-out | RMSE all | epochs | train s | cluster s |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (std::uint32_t k : clusters) {
@@ -150,12 +141,11 @@ int main(int argc, char** argv) {
     if (!e_train || !e_held) return std::fprintf(stderr, "RMSE failed\n"), 1;
     // Every pair is trained or held out: the whole RMSE follows from the two.
     const double n_train = double(train_l.size() * train_v.size()), n_all = double(btf.samples_per_texel());
-    const double all = std::sqrt((n_train * *e_train * *e_train + (n_all - n_train) * *e_held * *e_held) / n_all);
-    const double* e_all = &all;
+    const double e_all = std::sqrt((n_train * *e_train * *e_train + (n_all - n_train) * *e_held * *e_held) / n_all);
     std::printf("| %s | %u | %.1f (dec %.1f + lat %.1f + ids %.1f + scales %.1f) | 1:%.0f | %.1f | 1:%.0f | %.4f | %.4f | %.4f | %zu | %.0f | %.1f |\n",
                 k ? "clustered + scales" : "plain", r->clusters, kib(full.total()), kib(full.decoder), kib(full.latents),
                 kib(full.ids), kib(full.scales), double(raw) / double(full.total()), kib(compact.total()),
-                double(raw) / double(compact.total()), *e_train, *e_held, *e_all, r->epochs_done, r->seconds,
+                double(raw) / double(compact.total()), *e_train, *e_held, e_all, r->epochs_done, r->seconds,
                 r->cluster_seconds);
     std::fflush(stdout);
   }

@@ -593,6 +593,11 @@ TEST_CASE("helpers: mean luminance, RMSE against a BTF and a callback, crops and
   });
   const auto lum = mean_luminance(b);
   CHECK(lum[4] == doctest::Approx(4.0f * 0.7152f));
+  CHECK(abrdf_luminance(b.abrdf(4)) == lum[4]);
+  // Green is the texel index 0..5 (variance 35/12 about 2.5), red and blue 0: the best
+  // constant's RMSE over the three channels is sqrt(35/12 / 3); a constant BTF scores 0.
+  CHECK(constant_rmse(b) == doctest::Approx(std::sqrt(35.0 / 12.0 / 3.0)));
+  CHECK(constant_rmse(make_btf(2, 2, dirs, dirs, [](auto...) { return 0.7f; })) == doctest::Approx(0.0).epsilon(1e-9));
   CHECK(rmse(b, b).value() == 0.0);
   CHECK(rmse(b, [&](std::size_t t, const vec3&, const vec3&) { return vec3(0.0f, float(t), 0.5f); }) ==
         doctest::Approx(std::sqrt(0.25 / 3.0)));

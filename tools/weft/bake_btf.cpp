@@ -3,7 +3,6 @@
 // writes the .wbtf and prints sizes, the ratio to the raw float data and the RMSE.
 #include <cstddef>
 #include <cstdint>
-#include <cmath>
 #include <cstdio>
 #include <expected>
 #include <filesystem>
@@ -144,15 +143,9 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
             const double raw = double(data.rgb.size() * sizeof(float));
             std::error_code ec;
             const auto file_size = std::filesystem::file_size(a->output, ec);
-            // The best constant (each channel's mean) scores the data's deviation: the RMSE a
-            // model that learnt nothing would get.
-            double mean = 0.0, channel_mean[3] = {0, 0, 0}, deviation = 0.0;
-            const std::size_t samples = data.rgb.size() / 3;
-            for (std::size_t i = 0; i < data.rgb.size(); ++i) mean += data.rgb[i], channel_mean[i % 3] += data.rgb[i];
+            double mean = 0.0;
+            for (float v : data.rgb) mean += v;
             mean /= double(data.rgb.size());
-            for (double& m : channel_mean) m /= double(samples);
-            for (std::size_t i = 0; i < data.rgb.size(); ++i) deviation += std::pow(data.rgb[i] - channel_mean[i % 3], 2.0);
-            deviation = std::sqrt(deviation / double(data.rgb.size()));
             std::printf("wrote %s: %u x %u texels, %zu latents%s, %zu epochs (%zu steps) in %s (clustering %s)\n",
                         a->output.c_str(), trained->model.width, trained->model.height, trained->model.latent_count(),
                         trained->model.clustered() ? weft::format(" (k = {})", trained->clusters).c_str() : "",
@@ -165,7 +158,7 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
                         ec ? 0.0 : double(file_size) / 1024.0, raw / double(bytes.total()));
             std::printf("RMSE %.5f over every sample (mean sample %.4f; the best constant scores %.4f), final training "
                         "loss %.4g\n",
-                        *error, mean, deviation, trained->final_loss);
+                        *error, mean, btf::constant_rmse(data), trained->final_loss);
             return 0;
           }};
 }

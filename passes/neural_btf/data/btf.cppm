@@ -79,8 +79,13 @@ struct Crop {
 [[nodiscard]] Result<Btf> select_directions(const Btf& btf, std::span<const std::size_t> lights,
                                             std::span<const std::size_t> views);
 
-// Mean Rec.709 luminance of every texel's ABRDF (the per-texel scale of the clustered model).
+// Mean Rec.709 luminance of one ABRDF (lights * views * 3 floats), and of every texel's
+// (the per-texel scale of the clustered model).
+[[nodiscard]] float abrdf_luminance(std::span<const float> abrdf);
 [[nodiscard]] std::vector<float> mean_luminance(const Btf& btf);
+// RMSE of the best constant prediction, each channel's mean over every sample: what a model
+// that learnt nothing scores, the baseline a fit is judged against.
+[[nodiscard]] double constant_rmse(const Btf& btf);
 // Root mean square difference over every sample and channel. Different sizes or
 // directions: InvalidArgument.
 [[nodiscard]] Result<double> rmse(const Btf& a, const Btf& b);

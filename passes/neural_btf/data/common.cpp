@@ -98,17 +98,31 @@ Result<Btf> select_directions(const Btf& btf, std::span<const std::size_t> light
   return out;
 }
 
+float abrdf_luminance(std::span<const float> abrdf) {
+  const std::size_t n = abrdf.size() / 3;
+  double sum = 0.0;
+  for (std::size_t s = 0; s < n; ++s) sum += 0.2126 * abrdf[s * 3] + 0.7152 * abrdf[s * 3 + 1] + 0.0722 * abrdf[s * 3 + 2];
+  return n ? static_cast<float>(sum / double(n)) : 0.0f;
+}
+
 std::vector<float> mean_luminance(const Btf& btf) {
   std::vector<float> out(btf.texels(), 0.0f);
-  const std::size_t n = btf.samples_per_texel();
-  for (std::size_t t = 0; t < btf.texels(); ++t) {
-    const auto a = btf.abrdf(t);
-    double sum = 0.0;
-    for (std::size_t s = 0; s < n; ++s)
-      sum += 0.2126 * a[s * 3] + 0.7152 * a[s * 3 + 1] + 0.0722 * a[s * 3 + 2];
-    out[t] = n ? static_cast<float>(sum / double(n)) : 0.0f;
-  }
+  for (std::size_t t = 0; t < btf.texels(); ++t) out[t] = abrdf_luminance(btf.abrdf(t));
   return out;
+}
+
+double constant_rmse(const Btf& btf) {
+  const std::size_t samples = btf.rgb.size() / 3;
+  if (samples == 0) return 0.0;
+  double mean[3] = {0.0, 0.0, 0.0};
+  for (std::size_t i = 0; i < btf.rgb.size(); ++i) mean[i % 3] += btf.rgb[i];
+  for (double& m : mean) m /= double(samples);
+  double sq = 0.0;
+  for (std::size_t i = 0; i < btf.rgb.size(); ++i) {
+    const double d = btf.rgb[i] - mean[i % 3];
+    sq += d * d;
+  }
+  return std::sqrt(sq / double(btf.rgb.size()));
 }
 
 Result<double> rmse(const Btf& a, const Btf& b) {

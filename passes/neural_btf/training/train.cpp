@@ -36,13 +36,6 @@ std::uint64_t mix(std::uint64_t a, std::uint64_t b) {  // splitmix64 of a combin
   return z ^ (z >> 31);
 }
 
-float luminance(std::span<const float> abrdf) {
-  double sum = 0.0;
-  const std::size_t n = abrdf.size() / 3;
-  for (std::size_t s = 0; s < n; ++s) sum += 0.2126 * abrdf[s * 3] + 0.7152 * abrdf[s * 3 + 1] + 0.0722 * abrdf[s * 3 + 2];
-  return n ? float(sum / double(n)) : 0.0f;
-}
-
 // What the loop trains on, independent of plain / clustered.
 struct Data {
   std::size_t texels = 0, floats = 0, pairs = 0, views = 0;
@@ -127,11 +120,11 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
         // median (no luminance to divide by) keeps scale 1.
         std::vector<float> median_lum(k);
         for (std::size_t c = 0; c < k; ++c)
-          median_lum[c] = luminance(std::span<const float>(clustering->medians).subspan(c * d.floats, d.floats));
+          median_lum[c] = abrdf_luminance(std::span<const float>(clustering->medians).subspan(c * d.floats, d.floats));
         d.scales.resize(d.texels);
         for (std::size_t t = 0; t < d.texels; ++t) {
           const float m = median_lum[d.latent_of[t]];
-          d.scales[t] = m > 1e-12f ? luminance(btf.abrdf(t)) / m : 1.0f;
+          d.scales[t] = m > 1e-12f ? abrdf_luminance(btf.abrdf(t)) / m : 1.0f;
         }
       }
     }
@@ -224,15 +217,11 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
   auto cache = make_encoder_cache();
   double last_report = -1e30;
   std::size_t steps_this_run = 0;
-  bool stopped_early = false;
 
   while (state.epoch < o.epochs) {
     const double now = elapsed();
     if (o.max_seconds > 0.0 && now >= o.max_seconds) break;
-    if (o.stop_after_steps && steps_this_run >= o.stop_after_steps) {
-      stopped_early = true;
-      break;
-    }
+    if (o.stop_after_steps && steps_this_run >= o.stop_after_steps) break;
     // Stage 2 begins after the autoencoder epochs or the autoencoder's share of the time.
     const bool want_finetune = o.finetune_fraction > 0.0f &&
                                (state.epoch >= autoencoder_epochs ||
@@ -370,7 +359,6 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
   }
   if (!state.finetuning) encode_all();
   if (auto ok = write_checkpoint(); !ok) return std::unexpected(ok.error());
-  (void)stopped_early;
 
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   result.epochs_done = state.epoch;
