@@ -66,18 +66,6 @@ bool all_finite(std::span<const float> v) {
   return std::all_of(v.begin(), v.end(), [](float x) { return std::isfinite(x); });
 }
 
-// RMSE of the best constant prediction (each channel's mean over every sample): what a
-// model that learnt nothing about directions or texels scores.
-double constant_rmse(const Btf& btf) {
-  double mean[3] = {0, 0, 0}, sq = 0.0;
-  const std::size_t n = btf.rgb.size() / 3;
-  for (std::size_t i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c) mean[c] += btf.rgb[i * 3 + std::size_t(c)] / double(n);
-  for (std::size_t i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c) sq += std::pow(btf.rgb[i * 3 + std::size_t(c)] - mean[c], 2.0);
-  return std::sqrt(sq / double(btf.rgb.size()));
-}
-
 // Loss of the whole network (encoder in training mode, then decoder) on fixed samples:
 // Σ w (s y − t)², and its gradient when `gradient` is not empty.
 double network_loss(Network& net, const std::vector<std::vector<float>>& abrdfs, const std::vector<float>& stereo,
@@ -195,6 +183,35 @@ TEST_CASE("gradient check: encoder (conv, max-pool, batch norm, fc) and decoder 
   CHECK(std::abs(analytic[net.conv[0].weights]) + std::abs(analytic[net.fc_weights]) + std::abs(analytic[net.dense[0].weights]) > 0.0f);
 }
 
+TEST_CASE("batch_norm_population: inference on it equals training mode over the whole set, in any chunking") {
+  NetworkShape shape;
+  shape.lights = 9;
+  shape.views = 7;
+  shape.channels = {3, 4, 2};
+  shape.latent = 3;
+  shape.hidden = {6};
+  auto made = make_network(shape, 3);
+  REQUIRE(made);
+  std::mt19937 rng(5);
+  std::normal_distribution<float> normal(0.0f, 1.0f);
+  std::vector<std::vector<float>> abrdfs(7, std::vector<float>(std::size_t(9) * 7 * 3));
+  for (auto& a : abrdfs)
+    for (float& x : a) x = 40.0f + 0.01f * normal(rng);  // large and nearly constant: a one-pass variance loses it
+  std::vector<const float*> ptrs;
+  for (const auto& a : abrdfs) ptrs.push_back(a.data());
+  auto cache = make_encoder_cache();
+  Network batch = *made;
+  std::vector<float> expected(7 * 3), got(7 * 3);
+  encode_batch(batch, ptrs, true, *cache, expected);  // normalised by the statistics of all 7
+  for (std::size_t chunk : {1u, 3u, 7u, 64u}) {
+    CAPTURE(chunk);
+    Network net = *made;
+    batch_norm_population(net, ptrs, chunk);
+    encode_batch(net, ptrs, false, *cache, got);
+    for (std::size_t i = 0; i < got.size(); ++i) CHECK(got[i] == doctest::Approx(expected[i]).epsilon(1e-3));
+  }
+}
+
 TEST_CASE("training one texel converges") {
   const Btf btf = make_btf(1, 1, [](std::size_t, std::size_t l, std::size_t v, std::size_t c) {
     const vec3 li = to_vector(nine_directions()[l]), vo = to_vector(nine_directions()[v]);
@@ -213,7 +230,7 @@ TEST_CASE("training one texel converges") {
   REQUIRE(epoch_loss.size() == 400);
   auto rmse = model_rmse(r.model, btf);
   REQUIRE(rmse);
-  const double flat = constant_rmse(btf);
+  const double flat = btf::constant_rmse(btf);
   INFO("RMSE ", *rmse, " against ", flat, " of the best constant; loss ", epoch_loss.front(), " -> ", r.final_loss);
   // Plain SGD is slow on one ABRDF (at the paper's 0.05: RMSE 0.055 after 400 epochs, 0.025
   // after 2,000) but steady: the loss falls by orders of magnitude and the fit beats any
@@ -238,7 +255,7 @@ TEST_CASE("a tiny fabric trains to a bounded RMSE and decode() equals the traini
   const double rms = std::sqrt(sq / double(btf.rgb.size()));
   auto rmse = model_rmse(r.model, btf);
   REQUIRE(rmse);
-  const double flat = constant_rmse(btf);
+  const double flat = btf::constant_rmse(btf);
   INFO("RMSE ", *rmse, ", signal RMS ", rms, ", best constant ", flat);
   CHECK(*rmse < 0.35 * flat);  // measured: 0.028 against 0.150
   // The model's CPU decode against the network's batched forward pass (with decode's clamp
@@ -398,6 +415,11 @@ TEST_CASE("bad options are named") {
   auto r = train_neural_btf(btf, o);
   REQUIRE_FALSE(r);
   CHECK(r.error().message.find("batch 0") != std::string::npos);
+  o = {};
+  o.max_gradient_norm = -1.0f;
+  r = train_neural_btf(btf, o);
+  REQUIRE_FALSE(r);
+  CHECK(r.error().message.find("gradient clip -1") != std::string::npos);
   o = {};
   o.finetune_fraction = 1.5f;
   r = train_neural_btf(btf, o);

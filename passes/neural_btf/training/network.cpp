@@ -288,28 +288,32 @@ void batch_norm_population(Network& network, std::span<const float* const> input
   auto cache = make_encoder_cache();
   for (std::size_t s = 0; s < 3; ++s) {
     const auto& conv = network.conv[s];
-    std::vector<double> sum(conv.out, 0.0), sq(conv.out, 0.0);
-    // Two passes over the data per stage: the mean first, then the variance about it (a
-    // one-pass E[x²] − E[x]² loses the variance of large, nearly constant activations).
-    for (int pass = 0; pass < 2; ++pass) {
-      for (std::size_t i = 0; i < inputs.size(); i += chunk) {
-        const std::size_t n = std::min(chunk, inputs.size() - i);
-        std::vector<RowMatrix> pooled_out;
-        encode_stages(network, inputs.subspan(i, n), s, *cache, pooled_out);
-        for (const auto& m : pooled_out)
-          for (std::uint32_t c = 0; c < conv.out; ++c) {
-            if (pass == 0) sum[c] += double(m.row(c).sum());
-            else sq[c] += double((m.row(c).array() - float(sum[c])).square().sum());
-          }
-      }
-      const double count = double(inputs.size()) * double(conv.pooled_rows) * double(conv.pooled_cols);
+    // One pass over the data: each chunk's mean and squared deviations about it (exact,
+    // two-pass within the chunk), merged into the running totals by Chan et al.'s update, so
+    // the variance of large, nearly constant activations is not lost as in E[x²] − E[x]².
+    std::vector<double> mean(conv.out, 0.0), m2(conv.out, 0.0);
+    double count = 0.0;
+    const double per_input = double(conv.pooled_rows) * double(conv.pooled_cols);
+    for (std::size_t i = 0; i < inputs.size(); i += chunk) {
+      const std::size_t n = std::min(chunk, inputs.size() - i);
+      std::vector<RowMatrix> pooled_out;
+      encode_stages(network, inputs.subspan(i, n), s, *cache, pooled_out);
+      const double chunk_count = double(n) * per_input, total = count + chunk_count;
       for (std::uint32_t c = 0; c < conv.out; ++c) {
-        if (pass == 0) sum[c] /= count;
-        else {
-          network.running_mean[bn_offset + c] = float(sum[c]);
-          network.running_var[bn_offset + c] = float(sq[c] / count);
-        }
+        double sum = 0.0;
+        for (const auto& m : pooled_out) sum += double(m.row(c).sum());
+        const double chunk_mean = sum / chunk_count;
+        double chunk_m2 = 0.0;
+        for (const auto& m : pooled_out) chunk_m2 += double((m.row(c).array() - float(chunk_mean)).square().sum());
+        const double delta = chunk_mean - mean[c];
+        mean[c] += delta * chunk_count / total;
+        m2[c] += chunk_m2 + delta * delta * count * chunk_count / total;
       }
+      count = total;
+    }
+    for (std::uint32_t c = 0; c < conv.out; ++c) {
+      network.running_mean[bn_offset + c] = float(mean[c]);
+      network.running_var[bn_offset + c] = float(m2[c] / count);
     }
     bn_offset += conv.out;
   }
