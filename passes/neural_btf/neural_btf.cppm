@@ -78,20 +78,21 @@ inline constexpr std::uint32_t kBtfMaxWidth = 128;
 // InvalidArgument when the model is invalid, Unsupported when it exceeds the shader's limits.
 Result<std::vector<std::uint32_t>> pack_model(const btf::NeuralBtf& model);
 
-// The paper's decoder shape (latent 8; 12 -> 106 -> 106 -> 106 -> 3), which the shaders also
-// have compiled in with the inner loops unrolled (BTF_PAPER_SHAPE in btf_decode.glsl). On
-// lavapipe that variant measured SLOWER than the generic one, which loops over the shape
-// (kernel 1.6 against 2.3 GFLOP/s; fragment 3.0 against 5-7.6, weft-bench-btf-decode,
-// docs/neural-btf.md), so models use the generic variant unless asked; the unrolled one is
-// kept for comparison on real GPUs, whose compilers were not available to measure.
+// The paper's decoder shape (latent 8; 12 -> 106 -> 106 -> 106 -> 3), which the decode
+// kernel also has compiled in with the inner loops unrolled (BTF_PAPER_SHAPE in
+// btf_decode.glsl), for comparison. On lavapipe that variant measured SLOWER than the generic
+// one, which loops over the shape (kernel 1.6 against 2.3 GFLOP/s; as a fragment shader 3.0
+// against 5.0, weft-bench-btf-decode, docs/neural-btf.md), so the material's fragment shader
+// is the generic one only; the kernel keeps both for a real GPU's compiler to be measured.
 [[nodiscard]] bool is_paper_shape(const btf::NeuralBtf& model);
 
 // A model on the GPU and which shader variant decodes it.
 struct GpuBtfModel {
   gpu::Buffer buffer;
-  bool paper_shape = false;  // use the unrolled variant
+  bool paper_shape = false;  // the decode kernel uses its unrolled variant
 };
-// `allow_unrolled` = true decodes a paper-shaped model with the unrolled variant.
+// `allow_unrolled` = true: the decode kernel decodes a paper-shaped model with the unrolled
+// variant (materials always use the generic one).
 Result<GpuBtfModel> upload_model(gpu::Device& device, const btf::NeuralBtf& model, std::string_view label,
                                  bool allow_unrolled = false);
 

@@ -212,7 +212,6 @@ Result<std::vector<vec4>> BtfDecodeKernel::decode(gpu::Device& device, const Gpu
 struct NeuralBtfGpuMaterial {
   btf::NeuralBtfMaterial params;
   const gpu::Buffer* model = nullptr;
-  bool paper_shape = false;
   gpu::BindGroup group;
 };
 
@@ -220,8 +219,9 @@ struct NeuralBtfPass::State {
   gpu::BindGroupLayout frame_layout;
   gpu::BindGroupLayout material_layout;
   gpu::PipelineLayout layout;
-  gpu::RenderPipeline pipeline;        // any decoder shape
-  gpu::RenderPipeline paper_pipeline;  // the paper's shape, unrolled
+  // The generic decoder for any shape: the unrolled paper-shape variant measured slower in
+  // the fragment shader on lavapipe (docs/neural-btf.md), so only the decode kernel has it.
+  gpu::RenderPipeline pipeline;
   gpu::Sampler shadow_compare;
 };
 
@@ -234,9 +234,6 @@ Result<NeuralBtfPass> NeuralBtfPass::create(gpu::Device& device) {
   auto fs = device.create_shader_module(
       {.label = "neural_btf.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_frag()});
   if (!fs) return std::unexpected(fs.error());
-  auto paper_fs = device.create_shader_module(
-      {.label = "neural_btf_paper.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_paper_frag()});
-  if (!paper_fs) return std::unexpected(paper_fs.error());
   auto frame_layout = device.create_bind_group_layout(
       {.label = "neural-btf-frame",
        .entries = {{0, BindingType::UniformBuffer, ShaderStage::Vertex | ShaderStage::Fragment},
@@ -249,26 +246,21 @@ Result<NeuralBtfPass> NeuralBtfPass::create(gpu::Device& device) {
                                                .bind_group_layouts = {&*frame_layout, &*material_layout},
                                                .push_constant_size = sizeof(NeuralBtfConstants)});
   if (!layout) return std::unexpected(layout.error());
-  auto make_pipeline = [&](const char* label, const gpu::ShaderModule& fragment) {
-    return device.create_render_pipeline({.label = label,
-                                          .layout = &*layout,
-                                          .vertex = &*vs,
-                                          .fragment = &fragment,
-                                          .vertex_buffers = {frame::vertex_layout()},
-                                          .cull_mode = gpu::CullMode::None,
-                                          .color_targets = {{color_format}},
-                                          .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
-  };
-  auto pipeline = make_pipeline("neural-btf", *fs);
+  auto pipeline = device.create_render_pipeline({.label = "neural-btf",
+                                                 .layout = &*layout,
+                                                 .vertex = &*vs,
+                                                 .fragment = &*fs,
+                                                 .vertex_buffers = {frame::vertex_layout()},
+                                                 .cull_mode = gpu::CullMode::None,
+                                                 .color_targets = {{color_format}},
+                                                 .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
   if (!pipeline) return std::unexpected(pipeline.error());
-  auto paper_pipeline = make_pipeline("neural-btf-paper", *paper_fs);
-  if (!paper_pipeline) return std::unexpected(paper_pipeline.error());
   auto shadow_compare = device.create_sampler({.label = "neural-btf-shadow", .mipmap_filter = gpu::FilterMode::Nearest,
                                                .compare = gpu::CompareFunction::LessEqual, .max_lod = 0.0f});
   if (!shadow_compare) return std::unexpected(shadow_compare.error());
   NeuralBtfPass pass;
   pass.state_ = std::make_shared<State>(State{std::move(*frame_layout), std::move(*material_layout), std::move(*layout),
-                                              std::move(*pipeline), std::move(*paper_pipeline), std::move(*shadow_compare)});
+                                              std::move(*pipeline), std::move(*shadow_compare)});
   return pass;
 }
 
@@ -279,7 +271,7 @@ Result<std::shared_ptr<NeuralBtfGpuMaterial>> NeuralBtfPass::create_material(gpu
       {.label = "neural-btf-model", .layout = &state_->material_layout, .entries = {gpu::bind(0, model.buffer)}});
   if (!group) return std::unexpected(group.error());
   return std::make_shared<NeuralBtfGpuMaterial>(
-      NeuralBtfGpuMaterial{params, &model.buffer, model.paper_shape, std::move(*group)});
+      NeuralBtfGpuMaterial{params, &model.buffer, std::move(*group)});
 }
 
 Result<void> NeuralBtfPass::add(RenderGraph& graph, std::span<const NeuralBtfDraw> draws,
@@ -330,15 +322,10 @@ Result<void> NeuralBtfPass::add(RenderGraph& graph, std::span<const NeuralBtfDra
             {.label = "neural_btf",
              .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}},
              .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .load = gpu::LoadOp::Load}});
-        const gpu::RenderPipeline* bound = nullptr;
+        pass.set_pipeline(state->pipeline);
+        pass.set_bind_group(0, frame_group);
         for (const NeuralBtfDraw& draw : draws) {
           const NeuralBtfGpuMaterial& mat = *materials[draw.material];
-          const gpu::RenderPipeline* pipeline = mat.paper_shape ? &state->paper_pipeline : &state->pipeline;
-          if (pipeline != bound) {
-            pass.set_pipeline(*pipeline);
-            pass.set_bind_group(0, frame_group);
-            bound = pipeline;
-          }
           const btf::NeuralBtfMaterial& m = mat.params;
           const int flags = (m.ambient ? flag_ambient : 0) | (m.filter == btf::TexelFilter::Bilinear ? flag_bilinear : 0) |
                             (m.shadow ? flag_shadow : 0);
