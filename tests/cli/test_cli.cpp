@@ -4,6 +4,8 @@
 #include "../support/run_command.h"
 #include <array>
 #include <cstdio>
+#include <cstdlib>
+#include <iterator>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -85,4 +87,78 @@ TEST_CASE("weft info names the adapter; weft-triangle rejects a bad size and an 
   const auto r = run_command(triangle + " -o /nonexistent-dir/t.png --size 16x16");
   CHECK(r.exit_code != 0);
   CHECK(contains(r.output, "/nonexistent-dir/t.png"));
+}
+
+TEST_CASE("weft tradeoff: bad input is named; a small fur sweep writes its CSV, SVG, markdown and reference") {
+  const auto dir = temp_dir();
+  std::ofstream(dir / "s.json") << scene;  // standard material only
+  const char* source = std::getenv("WEFT_SOURCE_DIR");
+  REQUIRE(source);
+  const auto photo = std::filesystem::path(source) / "examples/fur/synthetic_fur.png";
+  std::ofstream(dir / "fur.json") << R"({"version": 1, "output": {"width": 32, "height": 24},
+    "camera": {"position": [0, 0.4, 2], "target": [0, 0, 0]},
+    "lights": [{"type": "directional", "direction": [-0.5, -1, -0.4], "intensity": 2}],
+    "environment": {"color": [0.2, 0.2, 0.2]},
+    "meshes": {"ball": {"primitive": "sphere", "radius": 0.5, "segments": 16}},
+    "materials": {"fur": {"type": "fur", "photo": ")" << photo.string() << R"(", "layers": 4, "wrap": "repeat"}},
+    "objects": [{"name": "ball", "mesh": "ball", "material": "fur"}]})";
+  const std::string s = (dir / "s.json").string(), fur = (dir / "fur.json").string();
+  struct Case {
+    std::string args, expect;
+  };
+  for (const auto& c : {Case{"tradeoff --feature fur", "scene file is required"},
+                        Case{"tradeoff " + fur, "--feature is required"},
+                        Case{"tradeoff " + fur + " --feature hair", "'hair'"},
+                        Case{"tradeoff " + s + " --feature fur", "no \"fur\" material"},
+                        Case{"tradeoff " + fur + " --feature fur --values layers=0", "layers"},
+                        Case{"tradeoff " + fur + " --feature fur --values layers", "KNOB=V1"},
+                        Case{"tradeoff " + fur + " --feature fur --values hairs=2", "'hairs'"},
+                        Case{"tradeoff " + fur + " --feature fur --size 0x5", "--size"},
+                        Case{"tradeoff " + (dir / "nope.json").string() + " --feature fur", "nope.json"}}) {
+    const auto r = run_command(cli + " " + c.args);
+    CHECK_MESSAGE(r.exit_code != 0, c.args);
+    CHECK_MESSAGE(contains(r.output, c.expect), c.args << " -> " << r.output);
+  }
+  const auto out = dir / "study";
+  const auto r = run_command(cli + " tradeoff " + fur + " --feature fur --frames 1 --values layers=1,2 --values fin_threshold=0.5 -o " +
+                             out.string());
+  REQUIRE_MESSAGE(r.exit_code == 0, r.output);
+  std::ifstream csv(out / "tradeoff.csv");
+  std::string text((std::istreambuf_iterator<char>(csv)), std::istreambuf_iterator<char>());
+  CHECK(contains(text, "fins=false layers=1"));
+  CHECK(contains(text, "reference"));
+  std::ifstream svg(out / "tradeoff.svg");
+  std::string plot((std::istreambuf_iterator<char>(svg)), std::istreambuf_iterator<char>());
+  CHECK(contains(plot, "</svg>"));
+  CHECK(std::filesystem::file_size(out / "tradeoff.md") > 100);
+  CHECK(std::filesystem::file_size(out / "reference.png") > 50);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("weft bake btf: bad input is named; a 4 x 4 synthetic fabric trains into a .wbtf") {
+  const auto dir = temp_dir();
+  std::ofstream(dir / "corrupt.btfraw") << "not a BTF at all";
+  const std::string out = " -o " + (dir / "x.wbtf").string();
+  struct Case {
+    std::string args, expect;
+  };
+  for (const auto& c : {Case{"bake btf" + out, "either a BTF path"},
+                        Case{"bake btf " + (dir / "corrupt.btfraw").string() + " --synthetic 4x4" + out, "not both"},
+                        Case{"bake btf --synthetic 0x4" + out, "'0x4'"},
+                        Case{"bake btf --synthetic 4x4 --clusters 17" + out, "--clusters 17 is more than the 16 texels"},
+                        Case{"bake btf --synthetic 4x4 --finetune 2" + out, "--finetune 2"},
+                        Case{"bake btf --synthetic 4x4 --resume" + out, "--checkpoint"},
+                        Case{"bake btf --synthetic 4x4 --weave satin" + out, "satin"},
+                        Case{"bake btf " + (dir / "nope.btfraw").string() + out, "nope.btfraw"},
+                        Case{"bake btf " + (dir / "corrupt.btfraw").string() + out, "corrupt.btfraw"}}) {
+    const auto r = run_command(cli + " " + c.args);
+    CHECK_MESSAGE(r.exit_code != 0, c.args);
+    CHECK_MESSAGE(contains(r.output, c.expect), c.args << " -> " << r.output);
+  }
+  CHECK_FALSE(std::filesystem::exists(dir / "x.wbtf"));  // no failed bake left a file
+  const auto r = run_command(cli + " bake btf --synthetic 4x4 --clusters 4 --epochs 1 --directions 64" + out);
+  REQUIRE_MESSAGE(r.exit_code == 0, r.output);
+  CHECK(contains(r.output, "RMSE"));
+  CHECK(std::filesystem::file_size(dir / "x.wbtf") > 1000);
+  std::filesystem::remove_all(dir);
 }
