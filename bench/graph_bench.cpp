@@ -2,7 +2,7 @@
 // transient memory aliasing saves on a realistic frame, and (with a Vulkan device) the
 // per-frame CPU overhead of executing through the graph against recording by hand.
 //
-//   build-release/bin/weft-bench-graph [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap]
+//   build-release/bin/weft-bench-graph [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap] [--steady-only]
 //
 // Prints markdown tables. Times are medians over --runs runs (default 15) of
 // std::chrono::steady_clock, plus thread-CPU time (steadier on a shared machine). Graph
@@ -403,6 +403,7 @@ int main(int argc, char** argv) {
   bool use_device = true;
   std::vector<int> sizes{10, 100, 1000, 10000};
   bool keep_heap = false;
+  std::vector<Build> builds{Build::First, Build::Steady};
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--runs") == 0 && i + 1 < argc) {
       runs = std::max(7, std::atoi(argv[++i]));
@@ -417,8 +418,10 @@ int main(int argc, char** argv) {
       use_device = false;
     } else if (std::strcmp(argv[i], "--keep-heap") == 0) {
       keep_heap = true;
+    } else if (std::strcmp(argv[i], "--steady-only") == 0) {
+      builds = {Build::Steady};  // e.g. to count instructions of the frame loop's case alone
     } else {
-      std::fprintf(stderr, "usage: %s [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap] [--steady-only]\n", argv[0]);
       return 2;
     }
   }
@@ -437,7 +440,7 @@ int main(int argc, char** argv) {
               "run (a frame loop's steady state).\n\n");
   std::printf("| graph | build | passes | setup µs | compile µs | setup+compile µs | µs/pass | setup+compile thread-CPU µs |\n"
               "|:--|:--|--:|--:|--:|--:|--:|--:|\n");
-  for (Build build : {Build::First, Build::Steady}) {
+  for (Build build : builds) {
     for (int n : sizes) {
       const auto pass_names = names("pass", n), tex_names = names("tex", n);
       const int r = n >= 10000 ? std::max(7, runs / 2) : runs;
@@ -446,7 +449,7 @@ int main(int argc, char** argv) {
                   chain.compile_us, chain.total_us, chain.total_us / n, chain.cpu_us);
     }
   }
-  for (Build build : {Build::First, Build::Steady}) {
+  for (Build build : builds) {
     for (int n : sizes) {
       const auto pass_names = names("pass", n), tex_names = names("tex", n);
       const int r = n >= 10000 ? std::max(7, runs / 2) : runs;

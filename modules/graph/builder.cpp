@@ -3,6 +3,7 @@
 // together with everything compile() finds, so a user sees every problem at once.
 module;
 #include <algorithm>
+#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -64,6 +65,8 @@ void GraphData::clear() {
   declaration_errors.clear();
   blackboard.entries_.clear();
   current_pass = invalid_index;
+  backward_edges = false;
+  maybe_unwritten_read = false;
   arena.reset();
 }
 
@@ -89,25 +92,6 @@ namespace {
 void add_error(GraphData& g, GraphErrorKind kind, std::string message, std::vector<std::string> passes,
                std::vector<std::string> resources) {
   g.declaration_errors.push_back(GraphError{kind, std::move(message), std::move(passes), std::move(resources)});
-}
-
-std::uint32_t new_version(GraphData& g, std::uint32_t resource, std::uint32_t producer) {
-  ResourceNode& r = g.resources[resource];
-  const std::uint32_t version = r.latest_slot == invalid_index ? 0 : g.versions[r.latest_slot].version + 1;
-  const auto slot = std::uint32_t(g.versions.size());
-  g.versions.push_back(VersionNode{resource, version, producer, invalid_index, r.latest_slot});
-  r.latest_slot = slot;
-  return slot;
-}
-
-std::uint32_t add_resource(GraphData& g, std::string_view name, ResourceType type, std::uint32_t creator) {
-  const auto index = std::uint32_t(g.resources.size());
-  ResourceNode& r = g.resources.emplace_back();
-  r.name = g.arena.copy(name);
-  r.type = type;
-  r.creator = creator;
-  new_version(g, index, invalid_index);
-  return index;
 }
 
 // The state one pass's two declarations of one resource combine into, if they can: a pass
@@ -174,16 +158,15 @@ std::string use_names(std::uint16_t uses, ResourceType type) {
             {std::string(other), std::string(pass_name)}, {std::string(g.resources[resource].name)});
 }
 
-// Records one use of one resource by the current pass; returns the version the pass leaves
-// the resource at (the input version for reads, the next version for writes). The checks
-// are cheap comparisons; messages are built only for a mistake, out of line.
-std::uint32_t declare(GraphData& g, std::uint32_t pass, ResourceType type, std::uint32_t resource,
-                      std::uint32_t version, std::uint16_t use, bool write, gpu::Access access) {
+// declare()'s slow path: a second declaration of a resource by one pass (merged into one
+// access), an older version, and every mistake (reported here, out of line).
+std::uint32_t declare_any(GraphData& g, std::uint32_t pass, ResourceType type, std::uint32_t resource,
+                          std::uint32_t version, std::uint16_t use, bool write, gpu::Access access) {
   if (resource >= g.resources.size() || g.resources[resource].type != type) {
     report_invalid_handle(g, pass, type, resource, version, write);
     return version;
   }
-  const ResourceNode& node = g.resources[resource];
+  ResourceNode& node = g.resources[resource];
   // Most handles name the latest version: no walk back through the versions.
   std::uint32_t slot = node.latest_slot;
   if (g.versions[slot].version != version) slot = g.find_slot(resource, version);
@@ -191,9 +174,10 @@ std::uint32_t declare(GraphData& g, std::uint32_t pass, ResourceType type, std::
     report_invalid_handle(g, pass, type, resource, version, write);
     return version;
   }
+  PassNode& pass_node = g.passes[pass];
 
   // A second declaration of the same resource by this pass merges into the first.
-  for (std::uint32_t i = g.passes[pass].first_access; i < g.accesses.size(); ++i) {
+  for (std::uint32_t i = pass_node.first_access, n = std::uint32_t(g.accesses.size()); i < n; ++i) {
     AccessNode& existing = g.accesses[i];
     if (existing.resource != resource) continue;
     const bool same_input = slot == existing.slot;
@@ -206,17 +190,20 @@ std::uint32_t declare(GraphData& g, std::uint32_t pass, ResourceType type, std::
     existing.access = *merged;
     existing.uses |= use;
     if (own_output) {
-      existing.reads = existing.reads || !write;
+      if (!write) existing.reads = true;
+      note_access(g, pass, node, resource, type, existing.slot, use, !write, write);
       return g.versions[existing.out_slot].version;
     }
     if (!write) {
       existing.reads = true;
+      note_access(g, pass, node, resource, type, existing.slot, use, true, false);
       return version;
     }
     if (!existing.writes()) {
       existing.out_slot = new_version(g, resource, pass);
       g.versions[existing.slot].next_writer = pass;
     }
+    note_access(g, pass, node, resource, type, existing.slot, use, false, true);
     return g.versions[existing.out_slot].version;
   }
 
@@ -235,6 +222,7 @@ std::uint32_t declare(GraphData& g, std::uint32_t pass, ResourceType type, std::
     a.out_slot = new_version(g, resource, pass);
   }
   g.accesses.push_back(a);
+  note_access(g, pass, node, resource, type, slot, use, !write, write);
   return write ? g.versions[a.out_slot].version : version;
 }
 
@@ -253,8 +241,9 @@ std::uint32_t declare(GraphData& g, std::uint32_t pass, ResourceType type, std::
                                                                     : std::vector<std::string>{});
 }
 
-[[gnu::cold, gnu::noinline]] void report_texture_desc(GraphData& g, std::uint32_t resource, const TextureDesc& desc,
-                                                      std::string_view pass_name) {
+}  // namespace
+
+void report_texture_desc(GraphData& g, std::uint32_t resource, const TextureDesc& desc, std::string_view pass_name) {
   std::string problem;
   if (desc.format == gpu::Format::Undefined) problem = "an undefined format";
   else if (desc.mip_level_count == 0) problem = "zero mip levels";
@@ -272,6 +261,8 @@ std::uint32_t declare(GraphData& g, std::uint32_t pass, ResourceType type, std::
             {std::string(g.resources[resource].name)});
 }
 
+namespace {
+
 void check_texture_desc(GraphData& g, std::uint32_t resource, const TextureDesc& desc, std::string_view pass_name) {
   const gpu::Extent3D& e = desc.size.absolute;
   const bool valid = desc.format != gpu::Format::Undefined && desc.mip_level_count != 0 &&
@@ -282,28 +273,24 @@ void check_texture_desc(GraphData& g, std::uint32_t resource, const TextureDesc&
 
 }  // namespace
 
-PassBuilder begin_pass(GraphData& g, std::string_view name, const ErasedExecute& execute) {
-  const auto index = std::uint32_t(g.passes.size());
-  if (g.current_pass != invalid_index) {
-    add_error(g, GraphErrorKind::InvalidDescriptor,
-              weft::format("pass '{}' is added inside the setup of pass '{}'; add passes one after another", name,
-                          g.passes[g.current_pass].name),
-              {std::string(name), std::string(g.passes[g.current_pass].name)}, {});
+void report_nested_pass(GraphData& g, std::string_view name) {
+  add_error(g, GraphErrorKind::InvalidDescriptor,
+            weft::format("pass '{}' is added inside the setup of pass '{}'; add passes one after another", name,
+                         g.passes[g.current_pass].name),
+            {std::string(name), std::string(g.passes[g.current_pass].name)}, {});
+}
+
+std::uint32_t declare_slow(GraphData& g, std::uint32_t pass, ResourceType type, std::uint32_t resource,
+                           std::uint32_t version, std::uint16_t use, bool write, gpu::Access access,
+                           bool wrong_direction) {
+  if (wrong_direction) {
+    const std::string_view use_name =
+        type == ResourceType::Texture ? to_string(TextureUse(std::countr_zero(unsigned(use))))
+                                      : to_string(BufferUse(std::countr_zero(unsigned(use))));
+    report_direction(g, pass, resource, write, use_name);
   }
-  PassNode& pass = g.passes.emplace_back();
-  pass.name = g.arena.copy(name);
-  pass.first_access = std::uint32_t(g.accesses.size());
-  pass.execute = execute;
-  g.current_pass = index;
-  return PassBuilder(&g, index);
+  return declare_any(g, pass, type, resource, version, use, write, access);
 }
-
-void end_pass(GraphData& g, std::uint32_t pass) {
-  g.passes[pass].access_count = std::uint32_t(g.accesses.size()) - g.passes[pass].first_access;
-  g.current_pass = invalid_index;
-}
-
-std::uint32_t builder_pass(const PassBuilder& builder) { return builder.pass_; }
 
 std::string format_extent(gpu::Extent3D e) {
   return e.depth_or_layers > 1 ? weft::format("{}x{}x{}", e.width, e.height, e.depth_or_layers)
@@ -318,13 +305,6 @@ using detail::GraphData;
 
 // ---- PassBuilder ---------------------------------------------------------------------------
 
-TextureHandle PassBuilder::create_texture(std::string_view name, const TextureDesc& desc) {
-  const std::uint32_t index = detail::add_resource(*graph_, name, ResourceType::Texture, pass_);
-  graph_->resources[index].texture_desc = desc;
-  detail::check_texture_desc(*graph_, index, desc, graph_->passes[pass_].name);
-  return {index, 0};
-}
-
 BufferHandle PassBuilder::create_buffer(std::string_view name, const BufferDesc& desc) {
   const std::uint32_t index = detail::add_resource(*graph_, name, ResourceType::Buffer, pass_);
   graph_->resources[index].buffer_desc = desc;
@@ -333,34 +313,6 @@ BufferHandle PassBuilder::create_buffer(std::string_view name, const BufferDesc&
                       weft::format("pass '{}': creates buffer '{}' with a zero size", graph_->passes[pass_].name, name),
                       {std::string(graph_->passes[pass_].name)}, {std::string(name)});
   return {index, 0};
-}
-
-TextureHandle PassBuilder::read(TextureHandle handle, TextureUse use) {
-  if (is_write(use)) detail::report_direction(*graph_, pass_, handle.index, false, to_string(use));
-  handle.version = detail::declare(*graph_, pass_, ResourceType::Texture, handle.index, handle.version,
-                                   detail::use_bit(use), false, access_of(use));
-  return handle;
-}
-
-BufferHandle PassBuilder::read(BufferHandle handle, BufferUse use) {
-  if (is_write(use)) detail::report_direction(*graph_, pass_, handle.index, false, to_string(use));
-  handle.version = detail::declare(*graph_, pass_, ResourceType::Buffer, handle.index, handle.version,
-                                   detail::use_bit(use), false, access_of(use));
-  return handle;
-}
-
-TextureHandle PassBuilder::write(TextureHandle handle, TextureUse use) {
-  if (!is_write(use)) detail::report_direction(*graph_, pass_, handle.index, true, to_string(use));
-  handle.version = detail::declare(*graph_, pass_, ResourceType::Texture, handle.index, handle.version,
-                                   detail::use_bit(use), true, access_of(use));
-  return handle;
-}
-
-BufferHandle PassBuilder::write(BufferHandle handle, BufferUse use) {
-  if (!is_write(use)) detail::report_direction(*graph_, pass_, handle.index, true, to_string(use));
-  handle.version = detail::declare(*graph_, pass_, ResourceType::Buffer, handle.index, handle.version,
-                                   detail::use_bit(use), true, access_of(use));
-  return handle;
 }
 
 void PassBuilder::side_effect() { graph_->passes[pass_].side_effect = true; }

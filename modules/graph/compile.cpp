@@ -84,15 +84,32 @@ struct Edge {
 class Scheduler {
  public:
   Scheduler(const GraphData& g, CompiledState& s, std::vector<GraphError>& errors)
-      : g_(g), s_(s), errors_(errors), alive_(s.scratch.alive), pass_texture_uses_(s.scratch.pass_texture_uses),
-        pass_buffer_uses_(s.scratch.pass_buffer_uses), resource_uses_(s.scratch.resource_uses) {}
+      : g_(g), s_(s), errors_(errors), alive_(s.scratch.alive), last_pass_(s.scratch.last_pass) {}
 
+  // The errors come in a stable order: descriptors, unwritten reads, pass kinds, outputs,
+  // cycles, usages, attachment sizes.
   void run() {
-    init_resources();
-    scan_accesses();
-    cull();
-    order_and_lifetimes();
-    check_usages();
+    const std::uint32_t P = s_.pass_count, R = s_.resource_count;
+    alive_.assign(P, 0);
+    last_pass_.assign(R, invalid_index);
+    s_.resource_final_state.assign(R, gpu::Access::Undefined);
+    std::vector<GraphError> output_errors, usage_errors;  // allocate only when there are errors
+    mark_outputs(output_errors);
+    init_resources(usage_errors);
+    if (g_.maybe_unwritten_read) report_unwritten_reads();
+    init_passes();
+    move_errors(output_errors);
+    s_.order.clear();
+    s_.order.reserve(P);
+    if (!g_.backward_edges) {
+      cull_in_declaration_order();
+    } else {
+      cull_from_roots();
+      ordered_by_edges();
+      for (std::uint32_t p = 0; p < P; ++p) s_.passes[p].culled = !alive_[p];
+      for (std::uint32_t i = std::uint32_t(s_.order.size()); i-- > 0;) note_last_uses(s_.order[i]);
+    }
+    move_errors(usage_errors);
     check_attachments();
   }
 
@@ -101,24 +118,48 @@ class Scheduler {
   CompiledState& s_;
   std::vector<GraphError>& errors_;
   std::vector<std::uint8_t>& alive_;
-  std::vector<std::uint16_t>& pass_texture_uses_;
-  std::vector<std::uint16_t>& pass_buffer_uses_;
-  std::vector<std::uint16_t>& resource_uses_;
-  bool backward_edge_ = false;
+  std::vector<std::uint32_t>& last_pass_;
 
   void error(GraphErrorKind kind, std::string message, std::vector<std::string> passes,
              std::vector<std::string> resources) {
     errors_.push_back(GraphError{kind, std::move(message), std::move(passes), std::move(resources)});
   }
+  void move_errors(std::vector<GraphError>& errors) {
+    for (GraphError& e : errors) errors_.push_back(std::move(e));
+  }
 
   [[nodiscard]] std::string pass_name(std::uint32_t p) const { return std::string(g_.passes[p].name); }
   [[nodiscard]] std::string resource_name(std::uint32_t r) const { return std::string(g_.resources[r].name); }
 
-  void init_resources() {
+  // Outputs: their producers are roots of culling, their final states are recorded, and
+  // their memory is kept to the end of the frame (they are read after it).
+  void mark_outputs(std::vector<GraphError>& output_errors) {
+    const std::uint32_t P = s_.pass_count;
+    for (const OutputNode& out : g_.outputs) {
+      if (out.resource >= s_.resource_count) continue;
+      const std::uint32_t slot = g_.find_slot(out.resource, out.version);
+      if (slot == invalid_index || g_.versions[slot].producer == invalid_index || g_.versions[slot].producer >= P) {
+        output_errors.push_back(GraphError{
+            GraphErrorKind::OutputNeverWritten,
+            weft::format("output {} (version {}) is never written by any pass", g_.describe(out.resource), out.version),
+            {},
+            {resource_name(out.resource)}});
+        continue;
+      }
+      alive_[g_.versions[slot].producer] = 1;
+      s_.resource_final_state[out.resource] = out.final_state;
+      last_pass_[out.resource] = kept_to_end;
+    }
+  }
+
+  // Resolved descriptors and gpu usages of every resource, the usage checks, and the state
+  // each resource starts the frame in.
+  void init_resources(std::vector<GraphError>& usage_errors) {
     const std::uint32_t R = s_.resource_count;
-    s_.resources.assign(R, ResourceInfo{});
-    s_.resource_final_state.assign(R, gpu::Access::Undefined);
-    resource_uses_.assign(R, 0);
+    s_.resources.clear();
+    s_.resources.reserve(R);
+    std::vector<gpu::Access>& current = s_.scratch.current;
+    current.resize(R);
     const gpu::Extent3D output = s_.options.output_extent;
     const bool have_output = output.width > 0 && output.height > 0;
     RelativeSize last_relative{};
@@ -126,22 +167,23 @@ class Scheduler {
     bool have_last_relative = false;
     for (std::uint32_t r = 0; r < R; ++r) {
       const ResourceNode& node = g_.resources[r];
-      ResourceInfo& info = s_.resources[r];
+      ResourceInfo& info = s_.resources.emplace_back();
       info.name = node.name;
       info.type = node.type;
       info.imported = node.imported;
+      current[r] = node.imported ? node.initial_state : gpu::Access::Undefined;
       if (node.type == ResourceType::Texture) {
         const TextureDesc& d = node.texture_desc;
-        if (d.size.is_relative && !have_output) {
-          error(GraphErrorKind::InvalidDescriptor,
-                weft::format("texture '{}' has a size relative to the output, but CompileOptions::output_extent is "
-                            "not set",
-                            node.name),
-                node.creator != invalid_index ? std::vector<std::string>{pass_name(node.creator)}
-                                              : std::vector<std::string>{},
-                {resource_name(r)});
-        }
         if (d.size.is_relative) {
+          if (!have_output) {
+            error(GraphErrorKind::InvalidDescriptor,
+                  weft::format("texture '{}' has a size relative to the output, but CompileOptions::output_extent "
+                               "is not set",
+                               node.name),
+                  node.creator != invalid_index ? std::vector<std::string>{pass_name(node.creator)}
+                                                : std::vector<std::string>{},
+                  {resource_name(r)});
+          }
           // Most relative sizes repeat (full-screen targets): resolve each once in a row.
           if (!have_last_relative || d.size.relative.width != last_relative.width ||
               d.size.relative.height != last_relative.height) {
@@ -157,65 +199,146 @@ class Scheduler {
         info.format = d.format;
         info.mip_level_count = d.mip_level_count;
         info.dimension = d.dimension;
-        info.texture_usage = d.extra_usage;
+        info.texture_usage = d.extra_usage | texture_usage_of(node.uses);
+        if (node.uses != 0) check_texture_usage(r, node, info, usage_errors);
       } else {
         info.buffer_size = node.buffer_desc.size;
-        info.buffer_usage = node.buffer_desc.extra_usage;
+        info.buffer_usage = node.buffer_desc.extra_usage | buffer_usage_of(node.uses);
+        if (node.uses != 0 && node.imported && node.imported_buffer_usage != gpu::BufferUsage::None)
+          check_imported_buffer_usage(r, node, usage_errors);
       }
     }
   }
 
-  // Unwritten reads, usage and kind bookkeeping, and whether declaration order is already a
-  // valid order (then no edge list is built at all).
-  void scan_accesses() {
-    const std::uint32_t P = s_.pass_count;
-    pass_texture_uses_.assign(P, 0);
-    pass_buffer_uses_.assign(P, 0);
-    alive_.assign(P, 0);
-    for (std::uint32_t p = 0; p < P; ++p) {
+  void check_texture_usage(std::uint32_t r, const ResourceNode& node, ResourceInfo& info,
+                           std::vector<GraphError>& usage_errors) {
+    const std::uint16_t uses = node.uses;
+    const gpu::TextureUsage final_usage = usage_for_state(s_.resource_final_state[r]);
+    if (!node.imported) {
+      info.texture_usage = info.texture_usage | final_usage;
+      // weft.gpu gives every texture a view, which Vulkan allows only with a usage a view
+      // can serve; a copy-only transient gets Sampled.
+      using U = gpu::TextureUsage;
+      if (!gpu::any(info.texture_usage & (U::Sampled | U::Storage | U::ColorAttachment | U::DepthAttachment)))
+        info.texture_usage = info.texture_usage | U::Sampled;
+    } else if (node.imported_texture_usage != gpu::TextureUsage::None && gpu::any(final_usage) &&
+               !gpu::has(node.imported_texture_usage, final_usage)) {
+      usage_errors.push_back(GraphError{
+          GraphErrorKind::MissingUsage,
+          weft::format("output texture '{}' is to be left in state {}, but it was created without {} usage (it has {})",
+                       node.name, gpu::to_string(s_.resource_final_state[r]), gpu::to_string(final_usage),
+                       gpu::to_string(node.imported_texture_usage)),
+          {},
+          {resource_name(r)}});
+    }
+    // A storage texture whose memory is taken over leaves GENERAL through a layout that
+    // needs Sampled (see release_state()).
+    const std::uint32_t forbidden = forbidden_mask(info.format);
+    if (!node.imported && gpu::has(info.texture_usage, gpu::TextureUsage::Storage) &&
+        !(forbidden & std::uint32_t(gpu::TextureUsage::Sampled)))
+      info.texture_usage = info.texture_usage | gpu::TextureUsage::Sampled;
+    if (forbidden & std::uint32_t(texture_usage_of(uses))) {
+      for (unsigned bit = 0; bit < 8; ++bit) {
+        if (!(uses & (1u << bit))) continue;
+        const auto use = TextureUse(bit);
+        std::string bad = gpu::forbidden_usages(info.format, usage_of(use));
+        if (bad.empty()) continue;
+        const auto users = passes_using(r, std::uint16_t(1u << bit));
+        usage_errors.push_back(
+            GraphError{GraphErrorKind::UnsupportedUsage,
+                       weft::format("pass '{}': uses texture '{}' ({}) as {}, which the format cannot take ({})",
+                                    users.front(), node.name, gpu::to_string(info.format), to_string(use), bad),
+                       users,
+                       {resource_name(r)}});
+      }
+    }
+    if (node.imported && node.imported_texture_usage != gpu::TextureUsage::None) {
+      for (unsigned bit = 0; bit < 8; ++bit) {
+        if (!(uses & (1u << bit))) continue;
+        const auto needed = usage_of(TextureUse(bit));
+        if ((std::uint32_t(needed) & ~std::uint32_t(node.imported_texture_usage)) == 0) continue;
+        const auto users = passes_using(r, std::uint16_t(1u << bit));
+        usage_errors.push_back(GraphError{
+            GraphErrorKind::MissingUsage,
+            weft::format("pass '{}': uses imported texture '{}' as {}, but it was created without {} usage (it has {})",
+                         users.front(), node.name, to_string(TextureUse(bit)),
+                         gpu::to_string(
+                             gpu::TextureUsage(std::uint32_t(needed) & ~std::uint32_t(node.imported_texture_usage))),
+                         gpu::to_string(node.imported_texture_usage)),
+            users,
+            {resource_name(r)}});
+      }
+    }
+  }
+
+  void check_imported_buffer_usage(std::uint32_t r, const ResourceNode& node, std::vector<GraphError>& usage_errors) {
+    for (unsigned bit = 0; bit < 8; ++bit) {
+      if (!(node.uses & (1u << bit))) continue;
+      const auto needed = usage_of(BufferUse(bit));
+      if ((std::uint32_t(needed) & ~std::uint32_t(node.imported_buffer_usage)) == 0) continue;
+      const auto users = passes_using(r, std::uint16_t(1u << bit));
+      usage_errors.push_back(GraphError{
+          GraphErrorKind::MissingUsage,
+          weft::format("pass '{}': uses imported buffer '{}' as {}, but it was created without {} usage (it has {})",
+                       users.front(), node.name, to_string(BufferUse(bit)), gpu::to_string(needed),
+                       gpu::to_string(node.imported_buffer_usage)),
+          users,
+          {resource_name(r)}});
+    }
+  }
+
+  // Only when setup saw a read of a version no pass produced (it may be an imported one).
+  void report_unwritten_reads() {
+    for (std::uint32_t p = 0; p < s_.pass_count; ++p) {
       const PassNode& pass = g_.passes[p];
-      bool writes_import = false;
       for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
         const AccessNode& a = g_.accesses[i];
         const VersionNode& v = g_.versions[a.slot];
-        resource_uses_[a.resource] |= a.uses;
-        (a.texture ? pass_texture_uses_ : pass_buffer_uses_)[p] |= a.uses;
         if (a.reads && v.producer == invalid_index && !(a.imported && v.version == 0)) {
           error(GraphErrorKind::UnwrittenRead,
                 weft::format("pass '{}': reads {} (version {}), which no pass writes and nothing imports", pass.name,
-                            g_.describe(a.resource), v.version),
+                             g_.describe(a.resource), v.version),
                 {pass_name(p)}, {resource_name(a.resource)});
         }
-        if (v.producer != invalid_index && v.producer > p) backward_edge_ = true;
-        if (a.reads && v.next_writer != invalid_index && v.next_writer != p && v.next_writer < p)
-          backward_edge_ = true;
-        writes_import = writes_import || (a.imported && a.writes());
       }
-      alive_[p] = pass.side_effect || writes_import;  // a root of cull()
     }
-    for (std::uint32_t p = 0; p < P; ++p) infer_kind(p);
   }
 
-  void infer_kind(std::uint32_t p) {
+  // Pass records with their kinds (declared, or inferred from the uses setup collected), and
+  // the roots of culling: side effects and writers of imported resources.
+  void init_passes() {
+    const std::uint32_t P = s_.pass_count;
+    s_.passes.resize(P);
+    for (std::uint32_t p = 0; p < P; ++p) {
+      const PassNode& pass = g_.passes[p];
+      const std::uint16_t tex = pass.texture_uses, buf = pass.buffer_uses;
+      PassKind inferred = PassKind::Compute;
+      if ((tex & attachment_uses) || (buf & draw_buffer_uses)) inferred = PassKind::Render;
+      else if ((tex | buf) != 0 && (tex & ~texture_copy_uses) == 0 && (buf & ~buffer_copy_uses) == 0)
+        inferred = PassKind::Transfer;
+      PassInfo& info = s_.passes[p];
+      info.name = pass.name;
+      info.kind_declared = pass.kind_declared;
+      info.side_effect = pass.side_effect;
+      info.kind = pass.kind_declared ? pass.declared_kind : inferred;
+      info.culled = false;
+      info.order_position = invalid_index;
+      if (pass.side_effect || pass.writes_import) alive_[p] = 1;
+      if (pass.kind_declared && pass.declared_kind != PassKind::Render && pass.declared_kind != inferred)
+        check_declared_kind(p);
+    }
+  }
+
+  void check_declared_kind(std::uint32_t p) {
     const PassNode& pass = g_.passes[p];
-    const std::uint16_t tex = pass_texture_uses_[p], buf = pass_buffer_uses_[p];
-    PassKind inferred = PassKind::Compute;
-    if ((tex & attachment_uses) || (buf & draw_buffer_uses)) inferred = PassKind::Render;
-    else if ((tex | buf) != 0 && (tex & ~texture_copy_uses) == 0 && (buf & ~buffer_copy_uses) == 0)
-      inferred = PassKind::Transfer;
-    PassInfo& info = s_.passes[p];
-    info.name = pass.name;
-    info.kind_declared = pass.kind_declared;
-    info.side_effect = pass.side_effect;
-    info.kind = pass.kind_declared ? pass.declared_kind : inferred;
-    if (!pass.kind_declared || pass.declared_kind == PassKind::Render || pass.declared_kind == inferred) return;
+    const std::uint16_t tex = pass.texture_uses, buf = pass.buffer_uses;
     // A declared compute or transfer pass must not use what only render passes can.
     const bool render_only = (tex & attachment_uses) || (buf & draw_buffer_uses);
     const bool non_copy = (tex & ~texture_copy_uses) || (buf & ~buffer_copy_uses);
     if (!render_only && !(pass.declared_kind == PassKind::Transfer && non_copy)) return;
     for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
       const AccessNode& a = g_.accesses[i];
-      const bool texture = g_.resources[a.resource].type == ResourceType::Texture;
+      const bool texture = a.texture;
       const std::uint16_t bad = texture ? (pass.declared_kind == PassKind::Transfer ? a.uses & ~texture_copy_uses
                                                                                     : a.uses & attachment_uses)
                                         : (pass.declared_kind == PassKind::Transfer ? a.uses & ~buffer_copy_uses
@@ -225,113 +348,63 @@ class Scheduler {
       while (!(bad & (1u << bit))) ++bit;
       error(GraphErrorKind::WrongPassKind,
             weft::format("pass '{}' is declared {} but uses {} as {}", pass.name, to_string(pass.declared_kind),
-                        g_.describe(a.resource), texture ? to_string(TextureUse(bit)) : to_string(BufferUse(bit))),
+                         g_.describe(a.resource), texture ? to_string(TextureUse(bit)) : to_string(BufferUse(bit))),
             {pass_name(p)}, {resource_name(a.resource)});
       return;
     }
   }
 
-  // Keeps side-effect passes, passes writing imported resources (their results outlive the
-  // frame; scan_accesses() marked both alive) and producers of outputs, then everything those
-  // need; the rest is culled.
-  void cull() {
+  // Declaration order is a valid order (setup saw no read of a version an earlier pass had
+  // already overwritten), so every producer comes before its readers: one backward sweep
+  // keeps what the roots need and finds each resource's last use, one forward sweep orders.
+  void cull_in_declaration_order() {
+    const std::uint32_t P = s_.pass_count;
+    for (std::uint32_t p = P; p-- > 0;) {
+      if (!alive_[p]) {
+        s_.passes[p].culled = true;
+        continue;
+      }
+      const PassNode& pass = g_.passes[p];
+      // A write depends on the version it starts from too: the pass may load or blend.
+      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+        const AccessNode& a = g_.accesses[i];
+        const std::uint32_t producer = g_.versions[a.slot].producer;
+        if (producer != invalid_index) alive_[producer] = 1;  // producer < p: visited later
+        if (last_pass_[a.resource] == invalid_index) last_pass_[a.resource] = p;
+      }
+    }
+    for (std::uint32_t p = 0; p < P; ++p)
+      if (alive_[p]) s_.order.push_back(p);
+  }
+
+  // Any order: keeps the roots (marked alive) and everything they need, depth first.
+  void cull_from_roots() {
     const std::uint32_t P = s_.pass_count;
     std::vector<std::uint32_t>& stack = s_.scratch.stack;
     stack.clear();
-    auto keep = [&](std::uint32_t p) {
-      if (p != invalid_index && p < P && !alive_[p]) {
-        alive_[p] = 1;
-        stack.push_back(p);
-      }
-    };
     for (std::uint32_t p = 0; p < P; ++p)
       if (alive_[p]) stack.push_back(p);
-    for (const OutputNode& out : g_.outputs) {
-      if (out.resource >= s_.resource_count) continue;
-      const std::uint32_t slot = g_.find_slot(out.resource, out.version);
-      if (slot == invalid_index || g_.versions[slot].producer == invalid_index || g_.versions[slot].producer >= P) {
-        error(GraphErrorKind::OutputNeverWritten,
-              weft::format("output {} (version {}) is never written by any pass", g_.describe(out.resource),
-                          out.version),
-              {}, {resource_name(out.resource)});
-        continue;
-      }
-      keep(g_.versions[slot].producer);
-      s_.resource_final_state[out.resource] = out.final_state;
-    }
     while (!stack.empty()) {
       const std::uint32_t p = stack.back();
       stack.pop_back();
       const PassNode& pass = g_.passes[p];
-      // A write depends on the version it starts from too: the pass may load or blend.
-      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i)
-        keep(g_.versions[g_.accesses[i].slot].producer);
-    }
-  }
-
-  // Orders the passes and finds each resource's lifetime, and whether each render pass's
-  // attachments agree in size (reported by check_attachments()). When declaration order is
-  // already valid, one sweep does all three.
-  void order_and_lifetimes() {
-    const std::uint32_t P = s_.pass_count;
-    s_.order.clear();
-    s_.order.reserve(P);
-    std::vector<std::uint8_t>& mismatch = s_.scratch.attachment_mismatch;
-    mismatch.assign(P, 0);
-    if (!backward_edge_) {
-      for (std::uint32_t p = 0; p < P; ++p) {
-        PassInfo& info = s_.passes[p];
-        info.culled = !alive_[p];
-        if (!alive_[p]) {
-          if (pass_texture_uses_[p] & attachment_uses) mismatch[p] = attachments_mismatch(p);
-          continue;
+      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+        const std::uint32_t producer = g_.versions[g_.accesses[i].slot].producer;
+        if (producer != invalid_index && producer < P && !alive_[producer]) {
+          alive_[producer] = 1;
+          stack.push_back(producer);
         }
-        const auto pos = std::uint32_t(s_.order.size());
-        info.order_position = pos;
-        s_.order.push_back(p);
-        use_at(p, pos, mismatch[p]);
       }
-    } else {
-      ordered_by_edges();
-      for (std::uint32_t p = 0; p < P; ++p) s_.passes[p].culled = !alive_[p];
-      for (std::uint32_t i = 0; i < s_.order.size(); ++i) {
-        s_.passes[s_.order[i]].order_position = i;
-        use_at(s_.order[i], i, mismatch[s_.order[i]]);
-      }
-      for (std::uint32_t p = 0; p < P; ++p)  // culled, or left out of the order by a cycle
-        if (s_.passes[p].order_position == invalid_index && (pass_texture_uses_[p] & attachment_uses))
-          mismatch[p] = attachments_mismatch(p);
     }
-    // Outputs are read after the frame: keep their memory to the end.
-    const auto last = std::uint32_t(s_.order.size()) - 1;
-    for (const OutputNode& out : g_.outputs)
-      if (out.resource < s_.resource_count && s_.resources[out.resource].used) s_.resources[out.resource].last_use = last;
   }
 
-  // Pass p runs at order position pos: extends the lifetimes of what it uses, and compares
-  // the sizes of its attachments.
-  void use_at(std::uint32_t p, std::uint32_t pos, std::uint8_t& mismatch) {
+  // Walking the order backwards: the first pass seen using a resource is its last user.
+  void note_last_uses(std::uint32_t p) {
     const PassNode& pass = g_.passes[p];
-    const bool attachments = (pass_texture_uses_[p] & attachment_uses) != 0;
-    std::uint32_t first_attachment = invalid_index;
-    bool differ = false;
     for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
-      const AccessNode& a = g_.accesses[i];
-      ResourceInfo& info = s_.resources[a.resource];
-      if (!info.used) {
-        info.used = true;
-        info.first_use = pos;
-      }
-      info.last_use = pos;
-      if (!attachments || !a.texture || !(a.uses & attachment_uses)) continue;
-      if (first_attachment == invalid_index) {
-        first_attachment = a.resource;
-        continue;
-      }
-      const gpu::Extent3D x = s_.resources[first_attachment].extent, y = info.extent;
-      differ = differ || x.width != y.width || x.height != y.height;
+      const std::uint32_t r = g_.accesses[i].resource;
+      if (last_pass_[r] == invalid_index) last_pass_[r] = p;
     }
-    mismatch = differ ? 1 : 0;
   }
 
   [[nodiscard]] bool attachments_mismatch(std::uint32_t p) const {
@@ -500,85 +573,6 @@ class Scheduler {
     error(GraphErrorKind::Cycle, std::move(message), std::move(passes), std::move(resources));
   }
 
-  void check_usages() {
-    for (std::uint32_t r = 0; r < s_.resource_count; ++r) {
-      const ResourceNode& node = g_.resources[r];
-      ResourceInfo& info = s_.resources[r];
-      const std::uint16_t uses = resource_uses_[r];
-      if (node.type == ResourceType::Texture) {
-        info.texture_usage = info.texture_usage | texture_usage_of(uses);
-        if (uses == 0) continue;
-        const gpu::TextureUsage final_usage = usage_for_state(s_.resource_final_state[r]);
-        if (!node.imported) {
-          info.texture_usage = info.texture_usage | final_usage;
-          // weft.gpu gives every texture a view, which Vulkan allows only with a usage a view
-          // can serve; a copy-only transient gets Sampled.
-          using U = gpu::TextureUsage;
-          if (!gpu::any(info.texture_usage & (U::Sampled | U::Storage | U::ColorAttachment | U::DepthAttachment)))
-            info.texture_usage = info.texture_usage | U::Sampled;
-        } else if (node.imported_texture_usage != gpu::TextureUsage::None && gpu::any(final_usage) &&
-                   !gpu::has(node.imported_texture_usage, final_usage)) {
-          error(GraphErrorKind::MissingUsage,
-                weft::format("output texture '{}' is to be left in state {}, but it was created without {} usage "
-                             "(it has {})",
-                             node.name, gpu::to_string(s_.resource_final_state[r]), gpu::to_string(final_usage),
-                             gpu::to_string(node.imported_texture_usage)),
-                {}, {resource_name(r)});
-        }
-        // A storage texture whose memory is taken over leaves GENERAL through a layout that
-        // needs Sampled (see release_state()).
-        const std::uint32_t forbidden = forbidden_mask(info.format);
-        if (!node.imported && gpu::has(info.texture_usage, gpu::TextureUsage::Storage) &&
-            !(forbidden & std::uint32_t(gpu::TextureUsage::Sampled)))
-          info.texture_usage = info.texture_usage | gpu::TextureUsage::Sampled;
-        if (forbidden & std::uint32_t(texture_usage_of(uses))) {
-          for (unsigned bit = 0; bit < 8; ++bit) {
-            if (!(uses & (1u << bit))) continue;
-            const auto use = TextureUse(bit);
-            std::string bad = gpu::forbidden_usages(info.format, usage_of(use));
-            if (bad.empty()) continue;
-            const auto users = passes_using(r, std::uint16_t(1u << bit));
-            error(GraphErrorKind::UnsupportedUsage,
-                  weft::format("pass '{}': uses texture '{}' ({}) as {}, which the format cannot take ({})",
-                              users.front(), node.name, gpu::to_string(info.format), to_string(use), bad),
-                  users, {resource_name(r)});
-          }
-        }
-        if (node.imported && node.imported_texture_usage != gpu::TextureUsage::None) {
-          for (unsigned bit = 0; bit < 8; ++bit) {
-            if (!(uses & (1u << bit))) continue;
-            const auto needed = usage_of(TextureUse(bit));
-            if ((std::uint32_t(needed) & ~std::uint32_t(node.imported_texture_usage)) == 0) continue;
-            const auto users = passes_using(r, std::uint16_t(1u << bit));
-            error(GraphErrorKind::MissingUsage,
-                  weft::format("pass '{}': uses imported texture '{}' as {}, but it was created without {} usage (it "
-                              "has {})",
-                              users.front(), node.name, to_string(TextureUse(bit)),
-                              gpu::to_string(gpu::TextureUsage(std::uint32_t(needed) &
-                                                               ~std::uint32_t(node.imported_texture_usage))),
-                              gpu::to_string(node.imported_texture_usage)),
-                  users, {resource_name(r)});
-          }
-        }
-      } else {
-        info.buffer_usage = info.buffer_usage | buffer_usage_of(uses);
-        if (uses == 0 || !node.imported || node.imported_buffer_usage == gpu::BufferUsage::None) continue;
-        for (unsigned bit = 0; bit < 8; ++bit) {
-          if (!(uses & (1u << bit))) continue;
-          const auto needed = usage_of(BufferUse(bit));
-          if ((std::uint32_t(needed) & ~std::uint32_t(node.imported_buffer_usage)) == 0) continue;
-          const auto users = passes_using(r, std::uint16_t(1u << bit));
-          error(GraphErrorKind::MissingUsage,
-                weft::format("pass '{}': uses imported buffer '{}' as {}, but it was created without {} usage (it has "
-                            "{})",
-                            users.front(), node.name, to_string(BufferUse(bit)), gpu::to_string(needed),
-                            gpu::to_string(node.imported_buffer_usage)),
-                users, {resource_name(r)});
-        }
-      }
-    }
-  }
-
   // Runs only on the error path.
   [[nodiscard]] std::vector<std::string> passes_using(std::uint32_t resource, std::uint16_t uses) const {
     std::vector<std::string> out;
@@ -594,18 +588,19 @@ class Scheduler {
     return out;
   }
 
+  // Only passes whose attachments setup saw declared with different sizes can differ once
+  // the sizes are resolved (culled passes are checked too).
   void check_attachments() {
-    const std::vector<std::uint8_t>& mismatch = s_.scratch.attachment_mismatch;  // from order_and_lifetimes()
     for (std::uint32_t p = 0; p < s_.pass_count; ++p) {
-      if (!mismatch[p]) continue;
       const PassNode& pass = g_.passes[p];
+      if (!pass.attachment_sizes_differ || !attachments_mismatch(p)) continue;
       std::string list;
       std::vector<std::string> names;
       for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
         const AccessNode& a = g_.accesses[i];
-        if (g_.resources[a.resource].type != ResourceType::Texture || !(a.uses & attachment_uses)) continue;
+        if (!a.texture || !(a.uses & attachment_uses)) continue;
         list += weft::format("{}texture '{}' is {}", list.empty() ? "" : ", ", g_.resources[a.resource].name,
-                            format_extent(s_.resources[a.resource].extent));
+                             format_extent(s_.resources[a.resource].extent));
         names.push_back(resource_name(a.resource));
       }
       error(GraphErrorKind::MismatchedAttachmentSizes,
@@ -620,7 +615,6 @@ class Scheduler {
 void validate_and_schedule(const GraphData& graph, CompiledState& state, std::vector<GraphError>& errors) {
   state.pass_count = std::uint32_t(graph.passes.size());
   state.resource_count = std::uint32_t(graph.resources.size());
-  state.passes.assign(state.pass_count, PassInfo{});
   Scheduler(graph, state, errors).run();
 }
 
@@ -646,8 +640,7 @@ std::expected<CompiledGraph, GraphErrors> RenderGraph::compile(const CompileOpti
                                                    data_->current_pass_name()),
                                        {std::string(data_->current_pass_name())}, {}});
   detail::validate_and_schedule(*data_, *state, errors.errors);
-  if (errors.empty()) detail::plan_memory(*data_, *state, options.device, errors.errors);
-  if (errors.empty()) detail::plan_barriers(*data_, *state);
+  if (errors.empty()) detail::plan_frame(*data_, *state, options.device, false, errors.errors);
   if (!errors.empty()) return std::unexpected(std::move(errors));
   return CompiledGraph(std::move(state));
 }

@@ -159,9 +159,8 @@ Result<void> realize(GraphData& graph, CompiledState& s, gpu::Device& device) {
   if (!s.memory.from_device || s.options.device != &device) {
     // Compiled with estimates (or another device): size and place with this device's numbers.
     std::vector<GraphError> errors;
-    plan_memory(graph, s, &device, errors);
+    plan_frame(graph, s, &device, true, errors);
     if (!errors.empty()) return std::unexpected(Error{ErrorKind::Device, errors.front().message});
-    plan_barriers(graph, s);
     s.options.device = &device;
   }
   auto real = std::make_unique<Realized>();

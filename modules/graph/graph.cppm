@@ -331,9 +331,9 @@ struct Kept final : KeptObject {
 };
 
 void* arena_allocate(GraphData& graph, std::size_t size, std::size_t alignment);
-PassBuilder begin_pass(GraphData& graph, std::string_view name, const ErasedExecute& execute);
-void end_pass(GraphData& graph, std::uint32_t pass);
-std::uint32_t builder_pass(const PassBuilder& builder);
+[[gnu::always_inline]] inline PassBuilder begin_pass(GraphData& graph, std::string_view name, const ErasedExecute& execute);
+[[gnu::always_inline]] inline void end_pass(GraphData& graph, std::uint32_t pass);
+inline std::uint32_t builder_pass(const PassBuilder& builder);
 
 template <class Data, class Fn>
 void invoke_execute(void* callable, const void* data, const PassResources& resources, PassContext& context) {
@@ -421,11 +421,11 @@ class PassBuilder {
   [[nodiscard]] std::string_view pass_name() const;
 
  private:
-  PassBuilder(detail::GraphData* graph, std::uint32_t pass) : graph_(graph), pass_(pass) {}
+  inline PassBuilder(detail::GraphData* graph, std::uint32_t pass) : graph_(graph), pass_(pass) {}
   detail::GraphData* graph_;
   std::uint32_t pass_;
-  friend PassBuilder detail::begin_pass(detail::GraphData&, std::string_view, const detail::ErasedExecute&);
-  friend std::uint32_t detail::builder_pass(const PassBuilder&);
+  friend inline PassBuilder detail::begin_pass(detail::GraphData&, std::string_view, const detail::ErasedExecute&);
+  friend inline std::uint32_t detail::builder_pass(const PassBuilder&);
 };
 
 // ---- execute ---------------------------------------------------------------------------
@@ -645,13 +645,21 @@ class Arena {
 constexpr std::uint16_t use_bit(TextureUse use) { return std::uint16_t(1u << unsigned(use)); }
 constexpr std::uint16_t use_bit(BufferUse use) { return std::uint16_t(1u << unsigned(use)); }
 
+// What setup learns about a pass as it declares, so that compile() need not sweep the
+// accesses again to find it: the uses it makes of textures and buffers (its kind), whether it
+// writes an imported resource (a root of culling), and whether its attachments were declared
+// with different sizes (compile() then compares the resolved extents).
 struct PassNode {
   std::string_view name;
   std::uint32_t first_access = 0;
   std::uint32_t access_count = 0;
+  std::uint32_t first_attachment = invalid_index;  // the resource of its first attachment
+  std::uint16_t texture_uses = 0, buffer_uses = 0;  // use bits over all its accesses
   PassKind declared_kind = PassKind::Compute;
   bool kind_declared = false;
   bool side_effect = false;
+  bool writes_import = false;
+  bool attachment_sizes_differ = false;  // as declared (relative or absolute), before resolving
   ErasedExecute execute;
 };
 
@@ -661,6 +669,8 @@ struct ResourceNode {
   bool imported = false;
   std::uint32_t creator = invalid_index;  // the pass that created a transient
   std::uint32_t latest_slot = invalid_index;
+  std::uint16_t uses = 0;  // use bits over every pass's accesses (its gpu usage)
+  std::uint32_t last_pass = invalid_index;  // the last pass that declared a use of it
   // Textures.
   TextureDesc texture_desc;
   const gpu::Texture* texture = nullptr;   // imported gpu object, if any
@@ -721,6 +731,11 @@ struct GraphData {
   std::vector<GraphError> declaration_errors;
   Blackboard blackboard;
   std::uint32_t current_pass = invalid_index;  // the pass whose setup is running
+  // Set by setup when a pass reads a version whose next writer was declared before it (only
+  // then can declaration order be an invalid order, or a cycle exist), and when a read might
+  // see a version nobody wrote; compile() takes its slow paths only then.
+  bool backward_edges = false;
+  bool maybe_unwritten_read = false;
 
   [[nodiscard]] std::string describe(std::uint32_t resource) const;  // "texture 'x'"
   [[nodiscard]] std::string_view current_pass_name() const {
@@ -736,15 +751,24 @@ struct GraphData {
 };
 
 // compile()'s working memory, kept with the compiled state so that a recompile reuses it.
+// scratch.last_pass of an output: its memory is kept to the end of the frame.
+inline constexpr std::uint32_t kept_to_end = invalid_index - 1;
+
+struct HeapBuilder;  // frame_plan.cpp
+struct HeapBuilders {  // the memory planner's heaps, kept with their arrays' capacity
+  HeapBuilders();
+  ~HeapBuilders();
+  std::vector<HeapBuilder> heaps;
+};
 struct CompileScratch {
-  std::vector<std::uint8_t> alive, attachment_mismatch;
-  std::vector<std::uint16_t> pass_texture_uses, pass_buffer_uses, resource_uses;
+  std::vector<std::uint8_t> alive;
   std::vector<std::uint32_t> stack;
-  std::vector<gpu::MemoryRequirements> requirements;
-  std::vector<std::uint32_t> start_head, end_head, start_next, end_next;
-  std::vector<std::uint32_t> parent, group_of_root, members;
+  std::vector<std::uint32_t> last_pass;  // per resource: the last pass using it (release after it)
+  std::vector<std::uint32_t> parent, group_of_root;
+  std::vector<std::uint8_t> linked;
   std::vector<gpu::Access> current;
   std::vector<std::uint8_t> released;
+  HeapBuilders heaps;
 };
 
 struct Realized;  // gpu objects of an executed graph (execute.cpp)
@@ -794,10 +818,13 @@ constexpr gpu::Access release_state(gpu::Access last) {
 }
 
 // Compile stages (one file each), run in this order by RenderGraph::compile.
+// validate_and_schedule: every check, culling, the order, and scratch.last_pass.
 void validate_and_schedule(const GraphData& graph, CompiledState& state, std::vector<GraphError>& errors);
-void plan_memory(const GraphData& graph, CompiledState& state, const gpu::Device* device,
-                 std::vector<GraphError>& errors);
-void plan_barriers(const GraphData& graph, CompiledState& state);
+// One walk over the order: lifetimes, transient memory (aliasing) and barriers. `replan` is
+// for a compiled graph whose order and lifetimes are known (execute() sizing memory with its
+// device's requirements); otherwise validate_and_schedule() has just run.
+void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device* device, bool replan,
+                std::vector<GraphError>& errors);
 
 // Estimated memory requirements when no device is at hand.
 gpu::MemoryRequirements estimate_requirements(const ResourceInfo& resource);
@@ -805,3 +832,155 @@ gpu::MemoryRequirements estimate_requirements(const ResourceInfo& resource);
 std::string format_extent(gpu::Extent3D extent);
 
 }  // namespace weft::detail
+
+// ---- setup's fast paths ----------------------------------------------------------------
+// Inline, because a frame's setup runs them for every declaration. The common case -- a
+// valid handle at its latest version, the pass's first use of that resource -- is decided
+// here in a few comparisons; merging a second declaration and every mistake go to
+// builder.cpp, which reports them.
+namespace weft::detail {
+
+inline constexpr std::uint16_t attachment_use_bits =
+    use_bit(TextureUse::ColorAttachment) | use_bit(TextureUse::DepthAttachment) | use_bit(TextureUse::DepthRead);
+
+[[gnu::cold]] void report_nested_pass(GraphData& g, std::string_view name);
+[[gnu::cold]] void report_texture_desc(GraphData& g, std::uint32_t resource, const TextureDesc& desc,
+                                       std::string_view pass_name);
+std::uint32_t declare_slow(GraphData& g, std::uint32_t pass, ResourceType type, std::uint32_t resource,
+                           std::uint32_t version, std::uint16_t use, bool write, gpu::Access access,
+                           bool wrong_direction);
+
+inline bool same_declared_size(const TextureSize& a, const TextureSize& b) {
+  if (a.is_relative != b.is_relative) return false;
+  if (a.is_relative) return a.relative.width == b.relative.width && a.relative.height == b.relative.height;
+  return a.absolute.width == b.absolute.width && a.absolute.height == b.absolute.height;
+}
+
+[[gnu::always_inline]] inline std::uint32_t new_version(GraphData& g, std::uint32_t resource, std::uint32_t producer) {
+  ResourceNode& r = g.resources[resource];
+  const std::uint32_t version = r.latest_slot == invalid_index ? 0 : g.versions[r.latest_slot].version + 1;
+  const auto slot = std::uint32_t(g.versions.size());
+  g.versions.push_back(VersionNode{resource, version, producer, invalid_index, r.latest_slot});
+  r.latest_slot = slot;
+  return slot;
+}
+
+[[gnu::always_inline]] inline std::uint32_t add_resource(GraphData& g, std::string_view name, ResourceType type, std::uint32_t creator) {
+  const auto index = std::uint32_t(g.resources.size());
+  ResourceNode& r = g.resources.emplace_back();
+  r.name = g.arena.copy(name);
+  r.type = type;
+  r.creator = creator;
+  new_version(g, index, invalid_index);
+  return index;
+}
+
+// What compile() would otherwise learn by sweeping every access again: use bits per pass and
+// resource, roots of culling, edges against declaration order, reads nobody may have
+// written, attachments declared with different sizes. `slot` is the version the access
+// starts from.
+[[gnu::always_inline]] inline void note_access(GraphData& g, std::uint32_t pass_index, ResourceNode& node, std::uint32_t resource,
+                        ResourceType type, std::uint32_t slot, std::uint16_t use, bool read, bool write) {
+  PassNode& pass = g.passes[pass_index];
+  node.uses |= use;
+  node.last_pass = pass_index;
+  if (type == ResourceType::Texture) {
+    pass.texture_uses |= use;
+    if (use & attachment_use_bits) {
+      if (pass.first_attachment == invalid_index) pass.first_attachment = resource;
+      else if (!same_declared_size(g.resources[pass.first_attachment].texture_desc.size, node.texture_desc.size))
+        pass.attachment_sizes_differ = true;
+    }
+  } else {
+    pass.buffer_uses |= use;
+  }
+  if (write && node.imported) pass.writes_import = true;
+  if (read) {
+    const VersionNode& v = g.versions[slot];
+    if (v.next_writer != invalid_index && v.next_writer != pass_index) g.backward_edges = true;
+    if (v.producer == invalid_index && !(node.imported && v.version == 0)) g.maybe_unwritten_read = true;
+  }
+}
+
+// Records one use of one resource by `pass`; returns the version the pass leaves it at.
+[[gnu::always_inline]] inline std::uint32_t declare(GraphData& g, std::uint32_t pass, ResourceType type, std::uint32_t resource,
+                             std::uint32_t version, std::uint16_t use, bool write, gpu::Access access,
+                             bool wrong_direction) {
+  if (!wrong_direction && resource < g.resources.size()) [[likely]] {
+    ResourceNode& node = g.resources[resource];
+    const std::uint32_t slot = node.latest_slot;
+    VersionNode& input = g.versions[slot];
+    if (node.type == type && input.version == version && node.last_pass != pass &&
+        !(write && input.next_writer != invalid_index)) [[likely]] {
+      AccessNode& a = g.accesses.emplace_back();
+      a.resource = resource;
+      a.slot = slot;
+      a.access = access;
+      a.uses = use;
+      a.reads = !write;
+      a.texture = type == ResourceType::Texture;
+      a.imported = node.imported;
+      if (write) {
+        input.next_writer = pass;
+        a.out_slot = new_version(g, resource, pass);  // `input` is stale from here on
+      }
+      note_access(g, pass, node, resource, type, slot, use, !write, write);
+      return write ? version + 1 : version;
+    }
+  }
+  return declare_slow(g, pass, type, resource, version, use, write, access, wrong_direction);
+}
+
+inline PassBuilder begin_pass(GraphData& g, std::string_view name, const ErasedExecute& execute) {
+  const auto index = std::uint32_t(g.passes.size());
+  if (g.current_pass != invalid_index) [[unlikely]]
+    report_nested_pass(g, name);
+  PassNode& pass = g.passes.emplace_back();
+  pass.name = g.arena.copy(name);
+  pass.first_access = std::uint32_t(g.accesses.size());
+  pass.execute = execute;
+  g.current_pass = index;
+  return PassBuilder(&g, index);
+}
+
+inline void end_pass(GraphData& g, std::uint32_t pass) {
+  g.passes[pass].access_count = std::uint32_t(g.accesses.size()) - g.passes[pass].first_access;
+  g.current_pass = invalid_index;
+}
+
+inline std::uint32_t builder_pass(const PassBuilder& builder) { return builder.pass_; }
+
+}  // namespace weft::detail
+
+namespace weft {
+
+[[gnu::always_inline]] inline TextureHandle PassBuilder::create_texture(std::string_view name, const TextureDesc& desc) {
+  const std::uint32_t index = detail::add_resource(*graph_, name, ResourceType::Texture, pass_);
+  graph_->resources[index].texture_desc = desc;
+  const gpu::Extent3D& e = desc.size.absolute;
+  const bool valid = desc.format != gpu::Format::Undefined && desc.mip_level_count != 0 &&
+                     (desc.size.is_relative ? desc.size.relative.width > 0.0f && desc.size.relative.height > 0.0f
+                                            : e.width != 0 && e.height != 0 && e.depth_or_layers != 0);
+  if (!valid) [[unlikely]]
+    detail::report_texture_desc(*graph_, index, desc, graph_->passes[pass_].name);
+  return {index, 0};
+}
+
+[[gnu::always_inline]] inline TextureHandle PassBuilder::read(TextureHandle handle, TextureUse use) {
+  return {handle.index, detail::declare(*graph_, pass_, ResourceType::Texture, handle.index, handle.version,
+                                        detail::use_bit(use), false, access_of(use), is_write(use))};
+}
+[[gnu::always_inline]] inline BufferHandle PassBuilder::read(BufferHandle handle, BufferUse use) {
+  return {handle.index, detail::declare(*graph_, pass_, ResourceType::Buffer, handle.index, handle.version,
+                                        detail::use_bit(use), false, access_of(use), is_write(use))};
+}
+[[gnu::always_inline]] inline TextureHandle PassBuilder::write(TextureHandle handle, TextureUse use) {
+  return {handle.index, detail::declare(*graph_, pass_, ResourceType::Texture, handle.index, handle.version,
+                                        detail::use_bit(use), true, access_of(use), !is_write(use))};
+}
+[[gnu::always_inline]] inline BufferHandle PassBuilder::write(BufferHandle handle, BufferUse use) {
+  return {handle.index, detail::declare(*graph_, pass_, ResourceType::Buffer, handle.index, handle.version,
+                                        detail::use_bit(use), true, access_of(use), !is_write(use))};
+}
+
+}  // namespace weft
