@@ -165,6 +165,14 @@ class Scheduler {
     RelativeSize last_relative{};
     gpu::Extent3D last_resolved{};
     bool have_last_relative = false;
+    struct CleanUsage {
+      gpu::Format format;
+      std::uint16_t uses;
+      gpu::TextureUsage extra_usage;
+      gpu::Access final_state;
+      gpu::TextureUsage usage;
+    } clean{};
+    bool have_clean = false;
     for (std::uint32_t r = 0; r < R; ++r) {
       const ResourceNode& node = g_.resources[r];
       ResourceInfo& info = s_.resources.emplace_back();
@@ -200,7 +208,20 @@ class Scheduler {
         info.mip_level_count = d.mip_level_count;
         info.dimension = d.dimension;
         info.texture_usage = d.extra_usage | texture_usage_of(node.uses);
-        if (node.uses != 0) check_texture_usage(r, node, info, usage_errors);
+        if (node.uses != 0) {
+          // Transients repeat (format, uses, final state): one that checked clean before
+          // gets the same usage again without the checks.
+          const gpu::Access final_state = s_.resource_final_state[r];
+          if (!node.imported && have_clean && d.format == clean.format && node.uses == clean.uses &&
+              d.extra_usage == clean.extra_usage && final_state == clean.final_state) {
+            info.texture_usage = clean.usage;
+          } else {
+            const std::size_t errors_before = usage_errors.size();
+            check_texture_usage(r, node, info, usage_errors);
+            have_clean = !node.imported && usage_errors.size() == errors_before;
+            if (have_clean) clean = {d.format, node.uses, d.extra_usage, final_state, info.texture_usage};
+          }
+        }
       } else {
         info.buffer_size = node.buffer_desc.size;
         info.buffer_usage = node.buffer_desc.extra_usage | buffer_usage_of(node.uses);

@@ -194,6 +194,22 @@ gpu::MemoryRequirements estimate_requirements(const ResourceInfo& r) {
 
 namespace {
 
+// Field by field in place (see new_version in graph.cppm: a barrier built on the stack and
+// copied whole stalls store forwarding).
+[[gnu::always_inline]] inline void add_barrier(std::vector<PlannedBarrier>& barriers, std::uint32_t resource,
+                                               gpu::Access before, gpu::Access after,
+                                               std::uint32_t previous_occupant = invalid_index,
+                                               gpu::Access occupant_before = gpu::Access::Undefined,
+                                               gpu::Access occupant_after = gpu::Access::Undefined) {
+  PlannedBarrier& b = barriers.emplace_back();
+  b.resource = resource;
+  b.before = before;
+  b.after = after;
+  b.previous_occupant = previous_occupant;
+  b.occupant_before = occupant_before;
+  b.occupant_after = occupant_after;
+}
+
 // From Undefined a texture still needs its layout set; a buffer has nothing to wait for.
 bool needs_barrier(gpu::Access before, gpu::Access after, bool texture) {
   if (before == gpu::Access::Undefined) return texture;
@@ -204,16 +220,17 @@ bool needs_barrier(gpu::Access before, gpu::Access after, bool texture) {
 // caller's functions, or by the device.
 class Sizer {
  public:
-  Sizer(const CompileOptions& options, const gpu::Device* device) : options_(options), device_(device) {}
+  Sizer(const CompileOptions& options, const gpu::Device* device)
+      : options_(options), device_(device), estimating_(device == nullptr && !options.texture_requirements) {}
 
-  Result<gpu::MemoryRequirements> operator()(const ResourceInfo& info) {
+  // The requirements of `info`, or false with `error` set. Estimates (the common case of
+  // compiling without a device) need no Result and are repeated in a row for equal textures.
+  [[gnu::always_inline]] bool size(const ResourceInfo& info, gpu::MemoryRequirements& out, Error& error) {
     const bool texture = info.type == ResourceType::Texture;
-    const bool custom = texture ? bool(options_.texture_requirements) : bool(options_.buffer_requirements);
-    if (device_ == nullptr && !custom) {
-      if (!texture) return estimate_requirements(info);
+    if (estimating_ && texture) {
       if (!have_last_ || info.extent.width != last_.extent.width || info.extent.height != last_.extent.height ||
           info.extent.depth_or_layers != last_.extent.depth_or_layers || info.format != last_.format ||
-          info.mip_level_count != last_.mip_level_count || info.dimension != last_.dimension) {
+          info.mip_level_count != last_.mip_level_count || info.dimension != last_.dimension) [[unlikely]] {
         last_.extent = info.extent;
         last_.format = info.format;
         last_.mip_level_count = info.mip_level_count;
@@ -221,8 +238,23 @@ class Sizer {
         last_requirements_ = estimate_requirements(info);
         have_last_ = true;
       }
-      return last_requirements_;
+      out = last_requirements_;
+      return true;
     }
+    Result<gpu::MemoryRequirements> req = query(info);
+    if (!req) {
+      error = std::move(req.error());
+      return false;
+    }
+    out = *req;
+    return true;
+  }
+
+ private:
+  Result<gpu::MemoryRequirements> query(const ResourceInfo& info) const {
+    const bool texture = info.type == ResourceType::Texture;
+    const bool custom = texture ? bool(options_.texture_requirements) : bool(options_.buffer_requirements);
+    if (device_ == nullptr && !custom) return estimate_requirements(info);
     if (!texture) {
       const gpu::BufferDescriptor desc{std::string(info.name), info.buffer_size, info.buffer_usage};
       return device_ != nullptr ? device_->memory_requirements(desc) : options_.buffer_requirements(desc);
@@ -234,6 +266,7 @@ class Sizer {
  private:
   const CompileOptions& options_;
   const gpu::Device* device_;
+  bool estimating_;  // textures are estimated (no device, no custom function)
   ResourceInfo last_;  // the texture last_requirements_ was estimated for
   gpu::MemoryRequirements last_requirements_{};
   bool have_last_ = false;
@@ -252,7 +285,8 @@ class AliasGroups {
       linked_.assign(resource_count, 0);
       ready_ = true;
     }
-    const std::uint32_t x = root(a), y = root(b);
+    // `a` (the resource being placed) is in no group yet when it links its first occupant.
+    const std::uint32_t x = linked_[a] ? root(a) : a, y = root(b);
     parent_[std::max(x, y)] = std::min(x, y);
     linked_[a] = linked_[b] = 1;
   }
@@ -332,22 +366,32 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
   std::vector<std::uint32_t>& takeovers = state.takeovers;
   std::vector<PlannedBarrier>& barriers = state.barriers;
 
+  Error size_error;
+  constexpr std::size_t none = ~std::size_t(0);
+  std::size_t heaps_of_type[2] = {0, 0}, only_heap[2] = {none, none};  // per ResourceType
+
   // Places one transient at its first use; its takeovers become barriers right after.
   auto place = [&](std::uint32_t r) {
     ResourceInfo& info = info_of[r];
-    Result<gpu::MemoryRequirements> req = sizer(info);
-    if (!req) [[unlikely]] {
+    gpu::MemoryRequirements requirements;
+    if (!sizer.size(info, requirements, size_error)) [[unlikely]] {
       info.bytes = 0;
       errors.push_back(GraphError{GraphErrorKind::Memory,
-                                  weft::format("{}: cannot size its memory: {}", graph.describe(r), req.error().message),
+                                  weft::format("{}: cannot size its memory: {}", graph.describe(r), size_error.message),
                                   {}, {std::string(info.name)}});
       return;
     }
+    const gpu::MemoryRequirements* const req = &requirements;
     info.bytes = req->size;
     plan.unaliased_bytes += req->size;
-    std::size_t heap = 0;
-    while (heap < heap_count && !(heaps[heap].type == info.type && (heaps[heap].type_bits & req->type_bits) != 0))
-      ++heap;
+    // The first heap that can take it: when there is one heap of this type, that one.
+    const auto type = std::size_t(info.type);
+    std::size_t heap = only_heap[type];
+    if (heap == none || (heaps[heap].type_bits & req->type_bits) == 0) {
+      heap = 0;
+      while (heap < heap_count && !(heaps[heap].type == info.type && (heaps[heap].type_bits & req->type_bits) != 0))
+        ++heap;
+    }
     if (heap == heap_count) {
       if (heap == heaps.size()) heaps.emplace_back();
       HeapBuilder& fresh = heaps[heap];
@@ -357,6 +401,7 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
       fresh.free.clear();
       fresh.segments.clear();
       ++heap_count;
+      only_heap[type] = ++heaps_of_type[type] == 1 ? heap : none;
     }
     HeapBuilder& h = heaps[heap];
     h.type_bits &= req->type_bits;
@@ -372,52 +417,51 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
     for (std::uint32_t i = 0; i < count; ++i) groups.link(r, takeovers[first_takeover + i], R);
   };
 
-  std::vector<std::uint32_t>& firsts = scratch.stack;  // transients first used by the pass
+  // Transients whose last use is the current pass: freed once the whole pass is placed, so
+  // that nothing the pass uses shares memory with anything else it uses.
+  std::vector<std::uint32_t>& ending = scratch.stack;
   for (std::uint32_t pos = 0; pos < positions; ++pos) {
     const std::uint32_t p = state.order[pos];
     state.passes[p].order_position = pos;
     const PassNode& pass = graph.passes[p];
-    const AccessNode* const begin = accesses + pass.first_access;
-    const AccessNode* const end = begin + pass.access_count;
-    firsts.clear();
-    for (const AccessNode* a = begin; a != end; ++a) {
-      ResourceInfo& info = info_of[a->resource];
-      if (!info.used) {
+    const AccessNode* const end = accesses + pass.first_access + pass.access_count;
+    state.barrier_begin[pos] = std::uint32_t(barriers.size());
+    ending.clear();
+    for (const AccessNode* a = accesses + pass.first_access; a != end; ++a) {
+      const std::uint32_t r = a->resource;
+      ResourceInfo& info = info_of[r];
+      const gpu::Access before = state_of[r];
+      if (!info.used && !a->imported) {
+        // First use of a transient (in the order the pass declared them): place it, then
+        // wait for the previous occupants of its memory, or just set its layout.
         info.used = true;
         info.first_use = pos;
-        if (!a->imported) firsts.push_back(a->resource);
-      }
-      info.last_use = pos;
-    }
-    // In index order, as a plain best-fit planner walking the resources would.
-    if (firsts.size() > 1) std::sort(firsts.begin(), firsts.end());
-    for (std::uint32_t r : firsts) place(r);
-
-    state.barrier_begin[pos] = std::uint32_t(barriers.size());
-    for (const AccessNode* a = begin; a != end; ++a) {
-      const std::uint32_t r = a->resource;
-      const ResourceInfo& info = info_of[r];
-      const gpu::Access before = state_of[r];
-      if (!a->imported && pos == info.first_use) {
+        place(r);
         const std::uint32_t first = takeover_first[r], last = first + takeover_count[r];
-        if (first == last && a->texture) barriers.push_back(PlannedBarrier{r, gpu::Access::Undefined, a->access});
+        if (first == last && a->texture) add_barrier(barriers, r, gpu::Access::Undefined, a->access);
         for (std::uint32_t t = first; t < last; ++t) {
           const std::uint32_t occupant = takeovers[t];
           const gpu::Access occupant_before = state_of[occupant];
           const gpu::Access occupant_after =
               a->texture && !released[occupant] ? release_state(occupant_before) : occupant_before;
-          barriers.push_back(
-              PlannedBarrier{r, gpu::Access::Undefined, a->access, occupant, occupant_before, occupant_after});
+          add_barrier(barriers, r, gpu::Access::Undefined, a->access, occupant, occupant_before, occupant_after);
           released[occupant] = 1;
           state_of[occupant] = occupant_after;
         }
-      } else if (needs_barrier(before, a->access, a->texture)) {
-        barriers.push_back(PlannedBarrier{r, before, a->access});
+      } else {
+        if (!info.used) {
+          info.used = true;
+          info.first_use = pos;
+        }
+        if (needs_barrier(before, a->access, a->texture)) add_barrier(barriers, r, before, a->access);
       }
+      info.last_use = pos;
       state_of[r] = a->access;
-      if (last_pass_of[r] == p && aliasing && info.heap != invalid_index)
-        heaps[info.heap].release(info.offset, info.bytes);
+      if (last_pass_of[r] == p) ending.push_back(r);
     }
+    if (aliasing)
+      for (const std::uint32_t r : ending)
+        if (info_of[r].heap != invalid_index) heaps[info_of[r].heap].release(info_of[r].offset, info_of[r].bytes);
   }
   state.barrier_begin[positions] = std::uint32_t(state.barriers.size());
 
@@ -427,7 +471,7 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
   for (std::uint32_t r = 0; r < R; ++r) {
     const gpu::Access final_state = state.resource_final_state[r];
     if (final_state == gpu::Access::Undefined || !resources[r].used || current[r] == final_state) continue;
-    state.barriers.push_back(PlannedBarrier{r, current[r], final_state});
+    add_barrier(state.barriers, r, current[r], final_state);
   }
   state.barrier_begin[positions + 1] = std::uint32_t(state.barriers.size());
 

@@ -860,7 +860,13 @@ inline bool same_declared_size(const TextureSize& a, const TextureSize& b) {
   ResourceNode& r = g.resources[resource];
   const std::uint32_t version = r.latest_slot == invalid_index ? 0 : g.versions[r.latest_slot].version + 1;
   const auto slot = std::uint32_t(g.versions.size());
-  g.versions.push_back(VersionNode{resource, version, producer, invalid_index, r.latest_slot});
+  // Field by field in place: a VersionNode built on the stack and copied is stored in small
+  // pieces and loaded whole, which the CPU cannot forward (a stall per version).
+  VersionNode& v = g.versions.emplace_back();
+  v.resource = resource;
+  v.version = version;
+  v.producer = producer;
+  v.previous = r.latest_slot;
   r.latest_slot = slot;
   return slot;
 }
