@@ -3,10 +3,13 @@
 // per-frame CPU overhead of executing through the graph against recording by hand.
 //
 //   build-release/bin/weft-bench-graph [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap] [--steady-only]
+//                                      [--unchanged-only]
 //
 // Prints markdown tables. Times are medians over --runs runs (default 15) of
 // std::chrono::steady_clock, plus thread-CPU time (steadier on a shared machine). Graph
-// sizes are timed twice: built into a new RenderGraph, and reset() and rebuilt (steady state).
+// sizes are timed three ways: built into a new RenderGraph; reset() and rebuilt with one
+// declaration different from the last frame (a full compile on warm arrays); reset() and
+// rebuilt identically (compile() reuses last frame's plan).
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -60,13 +63,20 @@ struct Timing {
 // First build: a new RenderGraph per run, so every array, the arena and the compiled state
 // are allocated. Steady state: one RenderGraph reset() and rebuilt per run, as a frame loop
 // does; it starts with an untimed run, so the timed runs reuse that run's memory.
-enum class Build { First, Steady };
+enum class Build { First, Changed, Unchanged };
 
-const char* to_string(Build build) { return build == Build::First ? "first build" : "reset + rebuild"; }
+const char* to_string(Build build) {
+  switch (build) {
+    case Build::First: return "first build";
+    case Build::Changed: return "reset + rebuild, changed";
+    case Build::Unchanged: return "reset + rebuild, unchanged (plan reused)";
+  }
+  return "?";
+}
 
 // The graph a run builds into: a fresh one, or `reused` after reset().
 RenderGraph& graph_for_run(Build build, std::optional<RenderGraph>& fresh, RenderGraph& reused, const char* name) {
-  if (build == Build::Steady) {
+  if (build != Build::First) {
     reused.reset();
     return reused;
   }
@@ -81,7 +91,7 @@ RenderGraph& graph_for_run(Build build, std::optional<RenderGraph>& fresh, Rende
   const gpu::TextureDescriptor output_desc{.label = "output", .size = {1920, 1080, 1}, .format = gpu::Format::RGBA8Unorm,
                                            .usage = gpu::TextureUsage::ColorAttachment};
   RenderGraph reused("chain");
-  for (int run = build == Build::Steady ? -1 : 0; run < runs; ++run) {
+  for (int run = build != Build::First ? -1 : 0; run < runs; ++run) {
     std::optional<RenderGraph> fresh;
     const double c0 = thread_cpu_us();
     const auto t0 = Clock::now();
@@ -99,7 +109,10 @@ RenderGraph& graph_for_run(Build build, std::optional<RenderGraph>& fresh, Rende
       b.read(previous, TextureUse::Sampled);
       output = b.write(output, TextureUse::ColorAttachment);
     });
-    graph.mark_output(output);
+    // A changed frame leaves the output in another state than the last one: compile() finds
+    // that only after comparing everything else.
+    const bool odd = (run & 1) != 0;
+    graph.mark_output(output, build == Build::Changed && odd ? gpu::Access::ColorAttachment : gpu::Access::Undefined);
     const auto t1 = Clock::now();
     auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
     const auto t2 = Clock::now();
@@ -152,16 +165,18 @@ DagShape make_dag(int n, std::uint32_t seed) {
   std::vector<double> setup, compile, total, cpu;
   std::vector<TextureHandle> results(static_cast<std::size_t>(n));
   RenderGraph reused("dag");
-  for (int run = build == Build::Steady ? -1 : 0; run < runs; ++run) {
+  for (int run = build != Build::First ? -1 : 0; run < runs; ++run) {
     std::optional<RenderGraph> fresh;
     const double c0 = thread_cpu_us();
     const auto t0 = Clock::now();
     RenderGraph& graph = graph_for_run(build, fresh, reused, "dag");
+    const bool changed = build == Build::Changed && (run & 1) != 0;  // the first texture's size
     for (int i = 0; i < n; ++i) {
       graph.add_pass(pass_names[std::size_t(i)], [&](PassBuilder& b) {
         for (int source : shape.reads[std::size_t(i)]) b.read(results[std::size_t(source)], TextureUse::Sampled);
         results[std::size_t(i)] = b.write(
-            b.create_texture(tex_names[std::size_t(i)], {.size = RelativeSize{(i % 3) ? 1.0f : 0.5f}, .format = gpu::Format::RGBA16Float}),
+            b.create_texture(tex_names[std::size_t(i)], {.size = RelativeSize{(i % 3) ? 1.0f : i == 0 && changed ? 0.25f : 0.5f},
+                                                         .format = gpu::Format::RGBA16Float}),
             TextureUse::StorageWrite);
         if (shape.side_effect[std::size_t(i)]) b.side_effect();
       });
@@ -403,7 +418,7 @@ int main(int argc, char** argv) {
   bool use_device = true;
   std::vector<int> sizes{10, 100, 1000, 10000};
   bool keep_heap = false;
-  std::vector<Build> builds{Build::First, Build::Steady};
+  std::vector<Build> builds{Build::First, Build::Changed, Build::Unchanged};
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--runs") == 0 && i + 1 < argc) {
       runs = std::max(7, std::atoi(argv[++i]));
@@ -419,9 +434,11 @@ int main(int argc, char** argv) {
     } else if (std::strcmp(argv[i], "--keep-heap") == 0) {
       keep_heap = true;
     } else if (std::strcmp(argv[i], "--steady-only") == 0) {
-      builds = {Build::Steady};  // e.g. to count instructions of the frame loop's case alone
+      builds = {Build::Changed};  // e.g. to count instructions of a full compile on warm arrays alone
+    } else if (std::strcmp(argv[i], "--unchanged-only") == 0) {
+      builds = {Build::Unchanged};
     } else {
-      std::fprintf(stderr, "usage: %s [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap] [--steady-only]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap] [--steady-only] [--unchanged-only]\n", argv[0]);
       return 2;
     }
   }
@@ -437,7 +454,8 @@ int main(int argc, char** argv) {
               "aliasing, barriers), median of %d runs.\n\n",
               runs);
   std::printf("First build: a new RenderGraph per run. Reset + rebuild: one RenderGraph, reset() and rebuilt per "
-              "run (a frame loop's steady state).\n\n");
+              "run (a frame loop's steady state), either with one declaration different from the last run (a full "
+              "compile) or identical (compile() reuses the last run's plan).\n\n");
   std::printf("| graph | build | passes | setup µs | compile µs | setup+compile µs | µs/pass | setup+compile thread-CPU µs |\n"
               "|:--|:--|--:|--:|--:|--:|--:|--:|\n");
   for (Build build : builds) {

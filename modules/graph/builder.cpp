@@ -54,9 +54,15 @@ GraphData::~GraphData() {
     if (pass.execute.destroy) pass.execute.destroy(pass.execute.callable, pass.execute.data);
 }
 
-void GraphData::clear() {
-  for (PassNode& pass : passes)
+void GraphData::release_callbacks() {
+  for (PassNode& pass : passes) {
     if (pass.execute.destroy) pass.execute.destroy(pass.execute.callable, pass.execute.data);
+    pass.execute = ErasedExecute{};
+  }
+}
+
+void GraphData::clear() {
+  release_callbacks();
   passes.clear();
   resources.clear();
   versions.clear();
@@ -67,6 +73,7 @@ void GraphData::clear() {
   current_pass = invalid_index;
   backward_edges = false;
   maybe_unwritten_read = false;
+  previous = nullptr;
   arena.reset();
 }
 
@@ -388,14 +395,18 @@ RenderGraph& RenderGraph::operator=(RenderGraph&&) noexcept = default;
 RenderGraph::~RenderGraph() = default;
 
 void RenderGraph::reset() {
-  // use_count() == 1: no compiled graph refers to these arrays any more.
-  if (data_.use_count() > 1) {
-    if (!spare_ || spare_.use_count() > 1) spare_ = std::make_shared<GraphData>(data_->name);
-    std::swap(data_, spare_);
-  } else if (spare_ && spare_.use_count() == 1) {
-    spare_->clear();  // what its callbacks captured is released once their compiled graph is gone
-  }
-  data_->clear();
+  // This frame's arrays become the previous ones; the next frame's are the other set, unless
+  // a compiled graph still holds that set (use_count() > 1), which then keeps it.
+  std::shared_ptr<GraphData> next;
+  if (spare_ && spare_.use_count() == 1) next = std::move(spare_);
+  else next = std::make_shared<GraphData>(data_->name);
+  next->clear();
+  spare_ = std::move(data_);
+  data_ = std::move(next);
+  data_->previous = spare_.get();
+  // What this frame's callbacks captured is released now, unless its compiled graph still
+  // needs them (then when its arrays are reused).
+  if (spare_.use_count() == 1) spare_->release_callbacks();
 }
 
 TextureHandle RenderGraph::import_texture(std::string_view name, const gpu::Texture* texture,

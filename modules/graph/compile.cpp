@@ -5,7 +5,9 @@ module;
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <bit>
 #include <cstdint>
+#include <cstring>
 #include <expected>
 #include <functional>
 #include <memory>
@@ -644,16 +646,51 @@ void validate_and_schedule(const GraphData& graph, CompiledState& state, std::ve
 
 namespace weft {
 
+namespace {
+
+std::unique_ptr<detail::CompiledState> take_spare_state(detail::GraphData& graph) {
+  const std::lock_guard lock(graph.spare_state_mutex);
+  return std::move(graph.spare_state);
+}
+
+// A plan made with these options serves a graph compiled with `options`.
+bool same_options(const detail::CompiledState& state, const CompileOptions& options) {
+  const gpu::Extent3D a = state.planned_output_extent, b = options.output_extent;
+  return !state.planned_custom_sizes && !options.texture_requirements && !options.buffer_requirements &&
+         state.planned_device == options.device && state.planned_aliasing == options.aliasing &&
+         a.width == b.width && a.height == b.height && a.depth_or_layers == b.depth_or_layers;
+}
+
+}  // namespace
+
 std::expected<CompiledGraph, GraphErrors> RenderGraph::compile(const CompileOptions& options) const {
+  // Last frame's plan, when this frame declares exactly what it did and its compiled graph
+  // is gone: only the names (and the callbacks, read from this graph at execute) change.
   std::unique_ptr<detail::CompiledState> state;
-  {
-    const std::lock_guard lock(data_->spare_state_mutex);
-    state = std::move(data_->spare_state);
+  if (detail::GraphData* before = data_->previous) {
+    state = take_spare_state(*before);
+    if (state && data_->current_pass == invalid_index && state->pass_count == before->passes.size() &&
+        state->resource_count == before->resources.size() && same_options(*state, options) &&
+        detail::same_declarations(*data_, *before)) {
+      state->graph = data_;
+      state->frame_index = 0;
+      state->reused = true;
+      for (std::uint32_t p = 0; p < state->pass_count; ++p) state->passes[p].name = data_->passes[p].name;
+      for (std::uint32_t r = 0; r < state->resource_count; ++r) state->resources[r].name = data_->resources[r].name;
+      return CompiledGraph(std::move(state));
+    }
   }
+  if (!state) state = take_spare_state(*data_);
   if (!state) state = std::make_unique<detail::CompiledState>();
+  detail::drop_gpu_objects(*state);  // a recycled state's gpu objects belong to its old plan
+  state->reused = false;
   state->graph = data_;
   state->frame_index = 0;
   state->options = options;
+  state->planned_output_extent = options.output_extent;
+  state->planned_device = options.device;
+  state->planned_aliasing = options.aliasing;
+  state->planned_custom_sizes = bool(options.texture_requirements) || bool(options.buffer_requirements);
   GraphErrors errors{data_->name, data_->declaration_errors};
   if (data_->current_pass != invalid_index)
     errors.errors.push_back(GraphError{GraphErrorKind::InvalidDescriptor,
@@ -667,3 +704,55 @@ std::expected<CompiledGraph, GraphErrors> RenderGraph::compile(const CompileOpti
 }
 
 }  // namespace weft
+
+namespace weft::detail {
+
+bool same_declarations(const GraphData& now, const GraphData& before) {
+  if (now.passes.size() != before.passes.size() || now.resources.size() != before.resources.size() ||
+      now.accesses.size() != before.accesses.size() || now.versions.size() != before.versions.size() ||
+      now.outputs.size() != before.outputs.size() || !now.declaration_errors.empty() ||
+      !before.declaration_errors.empty() || now.backward_edges != before.backward_edges ||
+      now.maybe_unwritten_read != before.maybe_unwritten_read)
+    return false;
+  // Versions, use bits, pass kinds and culling roots follow from these in declaration order
+  // (and each pass's first access from the counts before it).
+  if (!now.accesses.empty() &&
+      std::memcmp(now.accesses.data(), before.accesses.data(), now.accesses.size() * sizeof(AccessNode)) != 0)
+    return false;
+  bool differ = false;  // accumulated without branches: almost every frame compares equal
+  for (std::size_t p = 0; p < now.passes.size(); ++p) {
+    const PassNode &a = now.passes[p], &b = before.passes[p];
+    differ |= (a.access_count != b.access_count) | (a.side_effect != b.side_effect) |
+              (a.kind_declared != b.kind_declared) | (a.declared_kind != b.declared_kind);
+  }
+  if (differ) return false;
+  for (std::size_t r = 0; r < now.resources.size(); ++r) {
+    const ResourceNode &a = now.resources[r], &b = before.resources[r];
+    differ |= (a.type != b.type) | (a.imported != b.imported) | (a.initial_state != b.initial_state);
+    if (a.type == ResourceType::Texture) {
+      const TextureDesc &x = a.texture_desc, &y = b.texture_desc;
+      const bool relative = x.size.is_relative;
+      // Sizes as bits: equal bits give equal plans (and a -0 or NaN size is an error anyway).
+      differ |= (relative != y.size.is_relative) | (x.format != y.format) | (x.mip_level_count != y.mip_level_count) |
+                (x.dimension != y.dimension) | (x.extra_usage != y.extra_usage) |
+                (a.imported_texture_usage != b.imported_texture_usage);
+      if (relative)
+        differ |= (std::bit_cast<std::uint32_t>(x.size.relative.width) != std::bit_cast<std::uint32_t>(y.size.relative.width)) |
+                  (std::bit_cast<std::uint32_t>(x.size.relative.height) != std::bit_cast<std::uint32_t>(y.size.relative.height));
+      else
+        differ |= (x.size.absolute.width != y.size.absolute.width) | (x.size.absolute.height != y.size.absolute.height) |
+                  (x.size.absolute.depth_or_layers != y.size.absolute.depth_or_layers);
+    } else {
+      differ |= (a.buffer_desc.size != b.buffer_desc.size) | (a.buffer_desc.extra_usage != b.buffer_desc.extra_usage) |
+                (a.imported_buffer_usage != b.imported_buffer_usage);
+    }
+  }
+  if (differ) return false;
+  for (std::size_t o = 0; o < now.outputs.size(); ++o) {
+    const OutputNode &a = now.outputs[o], &b = before.outputs[o];
+    if (a.resource != b.resource || a.version != b.version || a.final_state != b.final_state) return false;
+  }
+  return true;
+}
+
+}  // namespace weft::detail

@@ -44,6 +44,8 @@ struct Realized {
 CompiledState::CompiledState() = default;
 CompiledState::~CompiledState() = default;
 
+void drop_gpu_objects(CompiledState& state) { state.realized.reset(); }
+
 struct Executor {
   CompiledState& state;
   GraphData& graph;
@@ -220,13 +222,12 @@ double elapsed_us(std::chrono::steady_clock::time_point since) {
 
 namespace weft {
 
-// The state goes back to its graph for the next compile() to reuse, without its gpu objects
-// (they belong to this compiled graph's memory plan) and without its reference to the graph
-// (which would keep the graph alive through itself).
+// The state goes back to its graph for the next compile() to reuse, without its reference to
+// the graph (which would keep the graph alive through itself). Its gpu objects stay with it:
+// the next frame's compile() keeps them when it reuses the plan, and drops them otherwise.
 CompiledGraph::~CompiledGraph() {
   if (!state_ || !state_->graph) return;
   std::shared_ptr<detail::GraphData> graph = std::move(state_->graph);
-  state_->realized.reset();
   const std::lock_guard lock(graph->spare_state_mutex);
   graph->spare_state = std::move(state_);
 }

@@ -371,7 +371,7 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
   std::size_t heaps_of_type[2] = {0, 0}, only_heap[2] = {none, none};  // per ResourceType
 
   // Places one transient at its first use; its takeovers become barriers right after.
-  auto place = [&](std::uint32_t r) {
+  auto place = [&](std::uint32_t r) __attribute__((noinline)) {
     ResourceInfo& info = info_of[r];
     gpu::MemoryRequirements requirements;
     if (!sizer.size(info, requirements, size_error)) [[unlikely]] {

@@ -489,11 +489,15 @@ class RenderGraph {
   // Empties the graph for the next frame's passes (Frostbite's rebuild-every-frame loop),
   // keeping the memory of its arrays, its arena and its last compile's working state, so a
   // graph rebuilt with the same shape allocates nothing. Handles, the Data& add_pass
-  // returned and the blackboard's entries are invalid afterwards. A compiled graph that is
-  // still alive keeps the declarations it was compiled from: the graph then continues in a
-  // second set of arrays (and goes back to the first one when that compiled graph is gone),
-  // so keeping last frame's compiled graph while building this frame's also allocates nothing.
-  // Objects captured by the old execute callbacks are destroyed when their arrays are reused.
+  // returned and the blackboard's entries are invalid afterwards.
+  // The graph alternates between two sets of arrays, so this frame's declarations are kept
+  // while the next frame's are made: when they turn out identical (the same passes declaring
+  // the same uses of the same resources, the same outputs, the same compile options) and last
+  // frame's compiled graph is gone, compile() reuses its plan -- order, memory, barriers and
+  // the gpu objects it created -- instead of planning again (CompiledGraph::plan_reused()).
+  // Keeping last frame's compiled graph while building this frame's also allocates nothing
+  // (it is then not reused). Objects captured by the execute callbacks are destroyed here,
+  // or, while a compiled graph still needs them, when it is gone and their arrays are reused.
   void reset();
 
   // Adds a pass: setup(PassBuilder&, Data&) runs now and fills Data with handles;
@@ -548,7 +552,9 @@ class RenderGraph {
   [[nodiscard]] std::string_view resource_name(std::uint32_t index) const;
 
   // Validates, culls, orders, plans memory and barriers. The compiled graph keeps what it
-  // needs of this graph alive; passes added later are not part of it.
+  // needs of this graph alive; passes added later are not part of it. After reset(), a frame
+  // that declares exactly what the last one did takes the last compiled graph's plan over
+  // once that is gone (see reset()): the result is the same, for the cost of a comparison.
   [[nodiscard]] std::expected<CompiledGraph, GraphErrors> compile(const CompileOptions& options = {}) const;
 
  private:
@@ -578,6 +584,8 @@ class CompiledGraph {
   [[nodiscard]] std::span<const PlannedBarrier> barriers_before(std::uint32_t pass) const;
   [[nodiscard]] std::span<const PlannedBarrier> final_barriers() const;
   [[nodiscard]] const MemoryPlan& memory() const;
+  // Whether compile() took last frame's plan over (see RenderGraph::reset()).
+  [[nodiscard]] bool plan_reused() const;
 
   // The gpu object behind a handle after execute() (transient or imported), or null.
   [[nodiscard]] const gpu::Texture* texture(TextureHandle handle) const;
@@ -617,10 +625,27 @@ class Arena {
     return p;
   }
   inline std::string_view copy(std::string_view text) {
-    if (text.empty()) return {};
-    auto* p = static_cast<char*>(allocate(text.size(), 1));
-    std::memcpy(p, text.data(), text.size());
-    return {p, text.size()};
+    const std::size_t n = text.size();
+    if (n == 0) return {};
+    auto* p = static_cast<char*>(allocate(n, 1));
+    const char* from = text.data();
+    // Pass and resource names are short: two overlapping fixed-size copies instead of a call.
+    if (n >= 8 && n <= 16) {
+      std::uint64_t head, tail;
+      std::memcpy(&head, from, 8);
+      std::memcpy(&tail, from + n - 8, 8);
+      std::memcpy(p, &head, 8);
+      std::memcpy(p + n - 8, &tail, 8);
+    } else if (n >= 4 && n < 8) {
+      std::uint32_t head, tail;
+      std::memcpy(&head, from, 4);
+      std::memcpy(&tail, from + n - 4, 4);
+      std::memcpy(p, &head, 4);
+      std::memcpy(p + n - 4, &tail, 4);
+    } else {
+      std::memcpy(p, from, n);
+    }
+    return {p, n};
   }
   // Forgets everything allocated and starts again at the first block; the blocks stay.
   void reset();
@@ -698,14 +723,18 @@ struct AccessNode {
   std::uint32_t slot = invalid_index;      // the version read, or the version a write starts from
   std::uint32_t out_slot = invalid_index;  // the version a write produces
   gpu::Access access = gpu::Access::Undefined;
-  std::uint16_t uses = 0;  // use bits
   bool reads = false;
   bool texture = false;   // copies of the resource's type and import flag: compile's hot loops
   bool imported = false;  // then never touch the (large) resource records
+  std::uint16_t uses = 0;  // use bits
+  std::uint16_t unused = 0;  // what would be padding, named, so that every byte has a value
   // inline: a member defined in a module's class is not implicitly inline, and compile's
   // loops call this per access.
   [[nodiscard]] inline bool writes() const { return out_slot != invalid_index; }
 };
+// Every byte is a field with a value, so two access arrays compare with memcmp
+// (same_declarations, once per frame over every access).
+static_assert(sizeof(AccessNode) == 20 && std::has_unique_object_representations_v<AccessNode>);
 
 struct OutputNode {
   std::uint32_t resource = invalid_index;
@@ -720,6 +749,9 @@ struct GraphData {
   ~GraphData();
   // Destroys the passes' data and callables and empties every array, keeping capacity.
   void clear();
+  // Destroys the passes' data and callables but keeps the declarations (last frame's, which
+  // the next compile() compares with).
+  void release_callbacks();
 
   std::string name;
   Arena arena;
@@ -736,6 +768,9 @@ struct GraphData {
   // see a version nobody wrote; compile() takes its slow paths only then.
   bool backward_edges = false;
   bool maybe_unwritten_read = false;
+  // Last frame's declarations (the other set of arrays reset() alternates with), which a
+  // compiled plan may be reused for; null when there is no last frame.
+  GraphData* previous = nullptr;
 
   [[nodiscard]] std::string describe(std::uint32_t resource) const;  // "texture 'x'"
   [[nodiscard]] std::string_view current_pass_name() const {
@@ -802,7 +837,21 @@ struct CompiledState {
   std::unique_ptr<Realized> realized;
   std::uint64_t frame_index = 0;
   CompileScratch scratch;
+  // What the plan was made for, to decide whether the next frame may reuse it: the options
+  // compile() was given (execute() may re-plan memory for its device), and whether it was.
+  gpu::Extent3D planned_output_extent{};
+  const gpu::Device* planned_device = nullptr;
+  bool planned_aliasing = true;
+  bool planned_custom_sizes = false;
+  bool reused = false;
 };
+
+// Whether `now` declares exactly what `before` did, so a plan made for one serves the other:
+// the same passes with the same uses of the same resources in the same order, the same
+// descriptors, imports and outputs. Names and execute callbacks may differ.
+bool same_declarations(const GraphData& now, const GraphData& before);
+// Destroys the gpu objects an executed plan created (execute.cpp, where they are defined).
+void drop_gpu_objects(CompiledState& state);
 
 // The state a texture is moved to when another transient first takes over (part of) its
 // memory: always a different image layout than its last one, with shader stages. The layout

@@ -23,6 +23,7 @@ std::span<const std::uint32_t> CompiledGraph::order() const { return state_->ord
 std::span<const PassInfo> CompiledGraph::passes() const { return state_->passes; }
 std::span<const ResourceInfo> CompiledGraph::resources() const { return state_->resources; }
 const MemoryPlan& CompiledGraph::memory() const { return state_->memory; }
+bool CompiledGraph::plan_reused() const { return state_->reused; }
 
 std::optional<std::uint32_t> CompiledGraph::find_pass(std::string_view name) const {
   for (std::uint32_t p = 0; p < state_->pass_count; ++p)

@@ -309,6 +309,85 @@ TEST_CASE("aliased transients: a texture taking over another's memory waits for 
   expect_no_validation_messages();
 }
 
+TEST_CASE("a frame loop rebuilding the same graph reuses its plan and gpu objects, running this frame's callbacks") {
+  constexpr std::uint32_t w = 16, h = 16;
+  const StoragePipeline fill = make_add_pipeline(false);
+  const StoragePipeline add = make_add_pipeline(true);
+  auto readback = device().create_buffer(
+      {.label = "loop-readback", .size = w * h * 4, .usage = gpu::BufferUsage::MapRead | gpu::BufferUsage::CopyDst});
+  REQUIRE(readback);
+  struct StepData {
+    TextureHandle src, dst;
+  };
+  struct CopyData {
+    TextureHandle src;
+    BufferHandle dst;
+  };
+  // A chain fill -> add x steps -> copy; each frame adds its own amount, so a stale callback
+  // would show in the result. Frame 3 has one step more (a new plan), frame 4 is like 3.
+  auto build = [&](RenderGraph& graph, int steps, float amount) {
+    const TextureDesc desc{.size = gpu::Extent3D{w, h, 1}, .format = gpu::Format::R32Float};
+    const StepData* previous = &graph.add_pass<StepData>(
+        "fill", [&](PassBuilder& b, StepData& d) { d.dst = b.write(b.create_texture("t0", desc), TextureUse::StorageWrite); },
+        [&fill](const PassResources& res, const StepData& d, PassContext& ctx) {
+          dispatch_add(ctx, fill, res.view(d.dst), nullptr, 1.0f, w, h);
+        });
+    for (int i = 1; i <= steps; ++i) {
+      previous = &graph.add_pass<StepData>(
+          "step" + std::to_string(i),
+          [&, previous](PassBuilder& b, StepData& d) {
+            d.src = b.read(previous->dst, TextureUse::StorageRead);
+            d.dst = b.write(b.create_texture("t" + std::to_string(i), desc), TextureUse::StorageWrite);
+          },
+          [&add, amount](const PassResources& res, const StepData& d, PassContext& ctx) {
+            dispatch_add(ctx, add, res.view(d.dst), &res.view(d.src), amount, w, h);
+          });
+    }
+    auto target = graph.import_buffer("loop-readback", &*readback, gpu::Access::Undefined);
+    auto& copy = graph.add_pass<CopyData>(
+        "copy",
+        [&, previous](PassBuilder& b, CopyData& d) {
+          d.src = b.read(previous->dst, TextureUse::CopySrc);
+          d.dst = b.write(target, BufferUse::CopyDst);
+        },
+        [](const PassResources& res, const CopyData& d, PassContext& ctx) {
+          ctx.encoder().copy_texture_to_buffer(res.texture(d.src), res.buffer(d.dst), 0);
+        });
+    graph.mark_output(copy.dst, gpu::Access::HostRead);
+  };
+  RenderGraph graph("loop");
+  std::uint64_t allocated_after_first = 0;
+  const gpu::Texture* t1_before = nullptr;
+  for (int frame = 0; frame < 5; ++frame) {
+    INFO("frame " << frame);
+    const int steps = frame >= 3 ? 4 : 3;
+    const float amount = 10.0f * float(frame + 1);
+    graph.reset();
+    build(graph, steps, amount);
+    auto compiled = graph.compile({.output_extent = {w, h, 1}});
+    REQUIRE_MESSAGE(compiled, compiled.error().to_string());
+    CHECK(compiled->plan_reused() == (frame != 0 && frame != 3));
+    auto stats = compiled->execute(device());
+    REQUIRE_MESSAGE(stats, stats.error().message);
+    const std::vector<float> values = read_floats(*readback);
+    int wrong = 0;
+    for (std::uint32_t y = 0; y < h; ++y)
+      for (std::uint32_t x = 0; x < w; ++x)
+        if (values[y * w + x] != 1.0f + float(x + 100 * y) + float(steps) * amount) ++wrong;
+    CHECK(wrong == 0);
+    const gpu::Texture* t1 = compiled->texture(TextureHandle{*compiled->find_resource("t1"), 1});
+    REQUIRE(t1 != nullptr);
+    if (frame == 0) allocated_after_first = device().allocated_bytes();
+    if (frame == 1 || frame == 2) {
+      // The reused plan keeps last frame's transients: no new memory, the same textures.
+      CHECK(device().allocated_bytes() == allocated_after_first);
+      CHECK(t1 == t1_before);
+    }
+    t1_before = t1;
+  }
+  expect_no_validation_messages();
+}
+
 TEST_CASE("a graph compiled without a device is re-planned with the device's memory requirements") {
   constexpr std::uint32_t w = 16, h = 16;
   const StoragePipeline fill = make_add_pipeline(false);

@@ -52,6 +52,10 @@ T pick(std::mt19937& rng, std::initializer_list<T> items) {
 
 bool chance(std::mt19937& rng, double p) { return std::uniform_real_distribution<double>(0, 1)(rng) < p; }
 
+bool contains_text(const std::string& haystack, const std::string& needle) {
+  return haystack.find(needle) != std::string::npos;
+}
+
 // `stale`: the chance that a read names an older version of a resource than its latest
 // (its readers then come before the writes that followed it, against declaration order).
 Model build(RenderGraph& graph, std::uint32_t seed, double stale = 0.0) {
@@ -457,4 +461,133 @@ TEST_CASE("reset: a graph rebuilt after reset() compiles exactly as a new graph,
       kept.reset();
     }
   }
+}
+
+TEST_CASE("reset: an identical rebuild reuses last frame's plan, which equals a fresh compile") {
+  RenderGraph graph("random");
+  int reused = 0;
+  for (std::uint32_t seed = 1; seed <= 120; ++seed) {
+    // Frame 1 builds the graph, frame 2 builds it again: frame 2 takes frame 1's plan over.
+    for (int frame = 0; frame < 2; ++frame) {
+      graph.reset();
+      const Model model = build(graph, seed);
+      auto compiled = graph.compile({.output_extent = {64, 64, 1}});
+      REQUIRE_MESSAGE(compiled, "seed " << seed << ": " << compiled.error().to_string());
+      CHECK_MESSAGE(compiled->plan_reused() == (frame == 1), "seed " << seed << " frame " << frame);
+      reused += compiled->plan_reused() ? 1 : 0;
+      check(model, *compiled, seed);
+      RenderGraph fresh("random");
+      build(fresh, seed);
+      auto expected = fresh.compile({.output_extent = {64, 64, 1}});
+      REQUIRE(expected);
+      CHECK_FALSE(expected->plan_reused());
+      CHECK_MESSAGE(compiled->dump() == expected->dump(), "seed " << seed << " frame " << frame);
+      CHECK_MESSAGE(compiled->to_dot() == expected->to_dot(), "seed " << seed << " frame " << frame);
+    }
+  }
+  CHECK(reused == 120);
+}
+
+namespace {
+
+// A small frame with every kind of declaration a plan depends on; `change` alters one of them.
+struct Variant {
+  const char* what;
+  int change;
+};
+
+void build_variant(RenderGraph& graph, int change, const std::string& suffix = "") {
+  using TU = gpu::TextureUsage;
+  auto history = graph.import_texture("history" + suffix,
+                                      gpu::TextureDescriptor{.label = "history", .size = {64, 64, 1},
+                                                             .format = gpu::Format::RGBA16Float,
+                                                             .usage = TU::Sampled | TU::ColorAttachment},
+                                      change == 1 ? gpu::Access::ShaderRead : gpu::Access::Undefined);
+  TextureHandle depth, colour, blurred;
+  graph.add_pass("depth" + suffix, [&](PassBuilder& b) {
+    depth = b.write(b.create_texture("depth" + suffix, {.format = gpu::Format::Depth32Float}),
+                    TextureUse::DepthAttachment);
+  });
+  graph.add_pass("shade" + suffix, [&](PassBuilder& b) {
+    b.read(depth, change == 2 ? TextureUse::DepthRead : TextureUse::Sampled);
+    colour = b.write(b.create_texture("colour" + suffix, {.size = RelativeSize{1.0f},
+                                                          .format = change == 3 ? gpu::Format::RGBA8Unorm
+                                                                                : gpu::Format::RGBA16Float}),
+                     TextureUse::ColorAttachment);
+  });
+  graph.add_pass("blur" + suffix, [&](PassBuilder& b) {
+    b.read(colour, TextureUse::Sampled);
+    blurred = b.write(b.create_texture("blurred" + suffix, {.size = RelativeSize{change == 4 ? 0.25f : 0.5f}}),
+                      TextureUse::StorageWrite);
+    if (change == 5) b.side_effect();
+  });
+  graph.add_pass("resolve" + suffix, [&](PassBuilder& b) {
+    b.read(blurred, TextureUse::Sampled);
+    b.read(colour, TextureUse::Sampled);
+    history = b.write(history, TextureUse::ColorAttachment);
+    if (change == 6) b.kind(PassKind::Render);
+  });
+  if (change == 7) graph.add_pass("extra" + suffix, [&](PassBuilder& b) { b.read(colour, TextureUse::Sampled); b.side_effect(); });
+  graph.mark_output(history, change == 8 ? gpu::Access::ColorAttachment : gpu::Access::ShaderRead);
+}
+
+}  // namespace
+
+TEST_CASE("reset: any change to what a plan depends on makes compile() plan again") {
+  const CompileOptions base{.output_extent = {64, 64, 1}};
+  const std::vector<Variant> variants{
+      {"an import's initial state", 1}, {"a use", 2},      {"a format", 3},     {"a relative size", 4},
+      {"a side effect", 5},             {"a pass kind", 6}, {"an extra pass", 7}, {"an output's final state", 8},
+      {"the output extent", 9},         {"aliasing", 10}};
+  for (const Variant& v : variants) {
+    INFO(v.what);
+    RenderGraph graph("variants");
+    graph.reset();
+    build_variant(graph, 0);
+    { REQUIRE(graph.compile(base)); }  // destroyed: its plan waits for the next frame
+    graph.reset();
+    build_variant(graph, v.change <= 8 ? v.change : 0);
+    CompileOptions options = base;
+    if (v.change == 9) options.output_extent = {32, 32, 1};
+    if (v.change == 10) options.aliasing = false;
+    auto compiled = graph.compile(options);
+    REQUIRE_MESSAGE(compiled, compiled.error().to_string());
+    CHECK_FALSE(compiled->plan_reused());
+    RenderGraph fresh("variants");
+    build_variant(fresh, v.change <= 8 ? v.change : 0);
+    auto expected = fresh.compile(options);
+    REQUIRE(expected);
+    CHECK(compiled->dump() == expected->dump());
+  }
+}
+
+TEST_CASE("reset: a reused plan shows this frame's names; a kept compiled graph is never taken over") {
+  RenderGraph graph("names");
+  graph.reset();
+  build_variant(graph, 0, "_a");
+  { REQUIRE(graph.compile({.output_extent = {64, 64, 1}})); }
+  graph.reset();
+  build_variant(graph, 0, "_b");
+  auto second = graph.compile({.output_extent = {64, 64, 1}});
+  REQUIRE(second);
+  CHECK(second->plan_reused());
+  CHECK(second->find_pass("shade_b").has_value());
+  CHECK_FALSE(second->find_pass("shade_a").has_value());
+  CHECK(second->find_resource("blurred_b").has_value());
+  CHECK(contains_text(second->dump(), "blurred_b"));
+  CHECK_FALSE(contains_text(second->dump(), "_a"));
+  // `second` stays alive: the next frame cannot take its plan and compiles afresh, and
+  // `second` is unchanged by it.
+  const std::string second_dump = second->dump();
+  graph.reset();
+  build_variant(graph, 0, "_c");
+  auto third = graph.compile({.output_extent = {64, 64, 1}});
+  REQUIRE(third);
+  CHECK_FALSE(third->plan_reused());
+  CHECK(second->dump() == second_dump);
+  // A graph compiled twice in one frame: the second compile finds no previous frame's plan
+  // it may take (the first is alive) and plans again.
+  auto again = graph.compile({.output_extent = {64, 64, 1}});
+  REQUIRE(again);
+  CHECK(again->dump() == third->dump());
 }
