@@ -1,5 +1,8 @@
 # Install rules and an exported package: a user's project does
-#   find_package(weft REQUIRED)   target_link_libraries(app PRIVATE weft::weft)
+#   find_package(weft CONFIG REQUIRED)   target_link_libraries(app PRIVATE weft::weft_graph)
+# linking the module target of each module it imports: CMake builds a consumer's BMIs only
+# for module targets linked directly (and what they link), not through the INTERFACE umbrella
+# weft::weft. tests/consumer/ (ctest -R test_consumer) installs and builds such a project.
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 get_property(weft_libs GLOBAL PROPERTY WEFT_LIBRARIES)

@@ -246,7 +246,13 @@ Result<FurBandTable> make_band_table(double i_max, double i_min, std::uint32_t l
     const bool skin = n == layers;
     g.keep_min = skin ? -1.0f : (float(t.first_code[n]) - 0.5f) / 255.0f;
     g.keep_max = (skin || n == 0 || layout == FurLayout::Strand) ? 2.0f : (float(t.first_code[n - 1]) - 0.5f) / 255.0f;
-    g.top = n == 0 ? 2.0f : (float(t.first_code[n - 1]) - 0.5f) / 255.0f;
+    // The band's top I(n-1) itself, as a fractional alpha (its sRGB curve), so the shader's
+    // code_to_luminance(top) gives I(n-1) back. Not the half-code keep threshold below
+    // first_code[n-1]: darkening to that would take texels at the boundary half a code
+    // (0.6-0.7 % in linear) below their own luminance, e.g. every strand layer under a
+    // uniform photo, where I(n) = I_max for all n. The darkening factor is 1 at the top,
+    // so a code on either side of it after float rounding is drawn the same.
+    g.top = n == 0 ? 2.0f : float(srgb_encode(t.boundaries[n - 1]));
     g.height = float(layers - n) / float(layers);
   }
   return t;
@@ -276,7 +282,7 @@ std::vector<std::vector<std::uint8_t>> make_shell_textures(const FurPhoto& photo
     // in black from texels the layer does not keep; alpha says which it keeps.
     for (std::size_t i = 0; i < n; ++i) {
       const std::uint8_t code = photo.code(i);
-      const double factor = double(code) > top ? fur_code_to_luminance(top) / lin[code] : 1.0;
+      const double factor = std::min(1.0, fur_code_to_luminance(top) / lin[code]);
       for (int k = 0; k < 3; ++k) {
         const std::uint8_t v = photo.rgba[i * 4 + std::size_t(k)];
         out[i * 4 + std::size_t(k)] = factor == 1.0 ? v : to_code(srgb_encode(lin[v] * factor));

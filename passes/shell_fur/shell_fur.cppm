@@ -15,8 +15,8 @@
 // Decisions (see docs/fur.md for the reasons and measurements):
 // - Luminance is Rec. 709 luminance of the sRGB-decoded photo, stored per texel as an 8-bit
 //   "luminance code" (the sRGB curve applied to it) in the photo texture's alpha; every
-//   band boundary is placed half a code between two codes, so the CPU tables and the GPU
-//   agree on every texel.
+//   keep boundary is placed half a code between two codes, so the CPU tables and the GPU
+//   agree on every texel. The darkening target is the band's exact top luminance I(n-1).
 // - Bands are half-open and partition the luminance axis: layer 0 takes I >= I_max (the
 //   bright outliers too), layer N everything below I(N-1) (the dark outliers too).
 // - Band layout (the paper): a texel is drawn in its one layer. Strand layout: also in
@@ -98,8 +98,10 @@ enum class FurLayout : std::uint8_t { Band, Strand };
 [[nodiscard]] std::string_view to_string(FurLayout layout);
 
 // One shell as the shaders see it (std430, 16 bytes), in alpha units (luminance code / 255):
-// the interval [keep_min, keep_max) it draws; the top of its band, above which a texel (drawn
-// below its own band) is darkened to that luminance (2: never); its height above the skin / h_b.
+// the interval [keep_min, keep_max) it draws (half a code between two codes); the top of its
+// band I(n-1) as a fractional alpha (the sRGB curve of that luminance), above which a texel
+// (drawn below its own band) is darkened to exactly I(n-1) (2: never); its height above the
+// skin / h_b.
 struct FurGpuLayer {
   float keep_min = 0.0f;
   float keep_max = 0.0f;

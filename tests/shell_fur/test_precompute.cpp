@@ -49,6 +49,14 @@ bool shader_keeps(const FurBandTable& t, std::uint32_t layer, std::uint8_t code)
   return a >= t.gpu[layer].keep_min && a < t.gpu[layer].keep_max;
 }
 
+// The fragment shader's colour factor for a texel of `code` drawn in `layer`: darkened to the
+// band's top when it lies above it (float math, as on the GPU).
+float shader_darkening(const FurBandTable& t, std::uint32_t layer, std::uint8_t code) {
+  const auto luminance = [](float a) { return a <= 0.04045f ? a / 12.92f : std::pow((a + 0.055f) / 1.055f, 2.4f); };
+  const float a = float(code) / 255.0f, top = t.gpu[layer].top;
+  return a > top ? luminance(std::max(top, 0.0f)) / luminance(a) : 1.0f;
+}
+
 std::filesystem::path shared_data() {
   const char* env = std::getenv("WEFT_SHARED_DATA");
   return env ? std::filesystem::path(env) : std::filesystem::path("/work/shared/data");
@@ -110,6 +118,11 @@ TEST_CASE("the band table is equation 4, and equations 1-3 give the same boundar
     CHECK(t.boundaries[n] == doctest::Approx(i_max * std::exp(-a * h)).epsilon(1e-12));  // eq. 1
     if (n > 0) CHECK(t.boundaries[n] / t.boundaries[n - 1] == doctest::Approx(std::pow(i_min / i_max, 1.0 / N)));
   }
+  // Band tops: layer n darkens to exactly I(n-1), the model's luminance at its top (not to
+  // the half-code keep threshold below it); the tips never darken.
+  CHECK(t.gpu.front().top > 1.0f);
+  for (std::uint32_t n = 1; n <= N; ++n)
+    CHECK(fur_code_to_luminance(double(t.gpu[n].top) * 255.0) == doctest::Approx(t.boundaries[n - 1]).epsilon(1e-6));
   // Layer heights: tips at h_b above the skin, the skin at 0.
   CHECK(t.gpu.front().height == 1.0f);
   CHECK(t.gpu.back().height == 0.0f);
@@ -193,6 +206,14 @@ TEST_CASE("extremes: a uniform photo (I_max = I_min, a = 0) puts every texel in 
       CHECK(counts.front() == 256);
       CHECK(std::accumulate(counts.begin() + 1, counts.end(), std::uint64_t(0)) == 0);
       for (double b : t.boundaries) CHECK(b == p.i_max);
+      // No darkening in any layer that draws the texel (strand: all of them): every band's
+      // top is the texel's own luminance. The naive textures hold its exact colour.
+      const auto textures = make_shell_textures(p, t);
+      for (std::uint32_t n = 0; n <= N; ++n) {
+        if (!t.keeps(n, 140)) continue;
+        CHECK_MESSAGE(shader_darkening(t, n, 140) == doctest::Approx(1.0f).epsilon(1e-6), "N=" << N << " layer " << n);
+        CHECK(textures[n][0] == 140);
+      }
     }
   }
 }
