@@ -105,14 +105,14 @@ RenderGraph& graph_for_run(Build build, std::optional<RenderGraph>& fresh, Rende
       });
     }
     auto output = graph.import_texture("output", output_desc, gpu::Access::Undefined);
+    // A changed frame reads the last texture another way than the last frame: the very last
+    // access differs, so compile() finds it only after comparing everything else.
+    const bool changed = build == Build::Changed && (run & 1) != 0;
     graph.add_pass("present", [&](PassBuilder& b) {
-      b.read(previous, TextureUse::Sampled);
+      b.read(previous, changed ? TextureUse::StorageRead : TextureUse::Sampled);
       output = b.write(output, TextureUse::ColorAttachment);
     });
-    // A changed frame leaves the output in another state than the last one: compile() finds
-    // that only after comparing everything else.
-    const bool odd = (run & 1) != 0;
-    graph.mark_output(output, build == Build::Changed && odd ? gpu::Access::ColorAttachment : gpu::Access::Undefined);
+    graph.mark_output(output);
     const auto t1 = Clock::now();
     auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
     const auto t2 = Clock::now();
@@ -170,13 +170,13 @@ DagShape make_dag(int n, std::uint32_t seed) {
     const double c0 = thread_cpu_us();
     const auto t0 = Clock::now();
     RenderGraph& graph = graph_for_run(build, fresh, reused, "dag");
-    const bool changed = build == Build::Changed && (run & 1) != 0;  // the first texture's size
+    const bool changed = build == Build::Changed && (run & 1) != 0;  // how the last pass reads
     for (int i = 0; i < n; ++i) {
       graph.add_pass(pass_names[std::size_t(i)], [&](PassBuilder& b) {
-        for (int source : shape.reads[std::size_t(i)]) b.read(results[std::size_t(source)], TextureUse::Sampled);
+        for (int source : shape.reads[std::size_t(i)])
+          b.read(results[std::size_t(source)], changed && i == n - 1 ? TextureUse::StorageRead : TextureUse::Sampled);
         results[std::size_t(i)] = b.write(
-            b.create_texture(tex_names[std::size_t(i)], {.size = RelativeSize{(i % 3) ? 1.0f : i == 0 && changed ? 0.25f : 0.5f},
-                                                         .format = gpu::Format::RGBA16Float}),
+            b.create_texture(tex_names[std::size_t(i)], {.size = RelativeSize{(i % 3) ? 1.0f : 0.5f}, .format = gpu::Format::RGBA16Float}),
             TextureUse::StorageWrite);
         if (shape.side_effect[std::size_t(i)]) b.side_effect();
       });
@@ -202,16 +202,22 @@ DagShape make_dag(int n, std::uint32_t seed) {
 // A deferred frame: depth prepass, shadow map, gbuffer, SSAO, lighting, TAA (with last
 // frame's history imported), depth of field, a five-level bloom chain (down and up),
 // tonemap into an LDR target and FXAA into the imported output.
-void build_realistic_frame(RenderGraph& graph) {
+const gpu::TextureDescriptor realistic_output_desc{.label = "output", .size = {1920, 1080, 1},
+                                                   .format = gpu::Format::RGBA8Unorm,
+                                                   .usage = gpu::TextureUsage::ColorAttachment};
+const gpu::TextureDescriptor realistic_history_desc{.label = "taa_history", .size = {1920, 1080, 1},
+                                                    .format = gpu::Format::RGBA16Float,
+                                                    .usage = gpu::TextureUsage::Sampled};
+
+// `output` and `history`: the gpu textures to import (for execute), or null for descriptors
+// only. `variant` leaves the output in another state (a frame that differs from the last).
+void build_realistic_frame(RenderGraph& graph, const gpu::Texture* output_texture = nullptr,
+                           const gpu::Texture* history_texture = nullptr, bool variant = false) {
   using F = gpu::Format;
-  auto output = graph.import_texture("output",
-                                     gpu::TextureDescriptor{.label = "output", .size = {1920, 1080, 1}, .format = F::RGBA8Unorm,
-                                                            .usage = gpu::TextureUsage::ColorAttachment},
-                                     gpu::Access::Undefined);
-  auto history = graph.import_texture("taa_history",
-                                      gpu::TextureDescriptor{.label = "taa_history", .size = {1920, 1080, 1},
-                                                             .format = F::RGBA16Float, .usage = gpu::TextureUsage::Sampled},
-                                      gpu::Access::ShaderRead);
+  auto output = output_texture ? graph.import_texture("output", output_texture, gpu::Access::Undefined)
+                               : graph.import_texture("output", realistic_output_desc, gpu::Access::Undefined);
+  auto history = history_texture ? graph.import_texture("taa_history", history_texture, gpu::Access::ShaderRead)
+                                 : graph.import_texture("taa_history", realistic_history_desc, gpu::Access::ShaderRead);
   TextureHandle depth, shadow, albedo, normal, material, ao, hdr, taa, dof, ldr;
   graph.add_pass("depth_prepass", [&](PassBuilder& b) {
     depth = b.write(b.create_texture("depth", {.size = RelativeSize{1.0f}, .format = F::Depth32Float}),
@@ -276,7 +282,50 @@ void build_realistic_frame(RenderGraph& graph) {
     b.read(ldr, TextureUse::Sampled);
     output = b.write(output, TextureUse::ColorAttachment);
   });
-  graph.mark_output(output);
+  graph.mark_output(output, variant ? gpu::Access::ColorAttachment : gpu::Access::Undefined);
+}
+
+// A frame loop: every frame reset(), declare the realistic frame, compile, execute. When
+// the frames alternate (changed), every compile plans again and execute creates the
+// transients again; when they do not, compile() reuses the plan and its transients.
+void frame_loop_table(gpu::Device& device, int runs) {
+  std::printf("\n### A frame loop rebuilding the realistic frame every frame\n\n");
+  std::printf("Per frame: reset(), declare the 18 passes, compile(), execute() (passes record only their "
+              "barriers and labels; timestamps off). Median CPU time per frame over %d frames.\n\n",
+              runs);
+  auto output = device.create_texture(realistic_output_desc);
+  auto history = device.create_texture(realistic_history_desc);
+  if (!output || !history) std::exit(1);
+  std::printf("| frames | setup + compile µs | execute ms | frame ms | plans reused |\n|:--|--:|--:|--:|--:|\n");
+  for (bool changing : {true, false}) {
+    RenderGraph graph("realistic");
+    std::vector<double> declare_compile, execute, frame;
+    int reused = 0;
+    for (int run = -2; run < runs; ++run) {
+      const auto t0 = Clock::now();
+      graph.reset();
+      build_realistic_frame(graph, &*output, &*history, changing && (run & 1) != 0);
+      auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
+      const auto t1 = Clock::now();
+      if (!compiled) {
+        std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str());
+        std::exit(1);
+      }
+      auto stats = compiled->execute(device, {.timestamps = false});
+      const auto t2 = Clock::now();
+      if (!stats) {
+        std::fprintf(stderr, "%s\n", stats.error().message.c_str());
+        std::exit(1);
+      }
+      if (run < 0) continue;
+      reused += compiled->plan_reused() ? 1 : 0;
+      declare_compile.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+      execute.push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+      frame.push_back(std::chrono::duration<double, std::milli>(t2 - t0).count());
+    }
+    std::printf("| %s | %.1f | %.2f | %.2f | %d of %d |\n", changing ? "alternating (changed every frame)" : "identical",
+                median(declare_compile), median(execute), median(frame), reused, runs);
+  }
 }
 
 std::string mib(std::uint64_t bytes) { return weft::format("{:.1f} MiB", double(bytes) / (1024.0 * 1024.0)); }
@@ -523,5 +572,6 @@ int main(int argc, char** argv) {
   }
   std::printf("\nDevice: %s (%s)\n", adapter->info().name.c_str(), adapter->info().driver.c_str());
   overhead_table(*device, runs);
+  frame_loop_table(*device, runs);
   return 0;
 }

@@ -714,11 +714,12 @@ bool same_declarations(const GraphData& now, const GraphData& before) {
       !before.declaration_errors.empty() || now.backward_edges != before.backward_edges ||
       now.maybe_unwritten_read != before.maybe_unwritten_read)
     return false;
-  // Versions, use bits, pass kinds and culling roots follow from these in declaration order
-  // (and each pass's first access from the counts before it).
-  if (!now.accesses.empty() &&
-      std::memcmp(now.accesses.data(), before.accesses.data(), now.accesses.size() * sizeof(AccessNode)) != 0)
-    return false;
+  // Cheapest first: what changes between frames usually shows in the counts, the outputs or
+  // a descriptor (a resize) before the accesses are compared byte for byte.
+  for (std::size_t o = 0; o < now.outputs.size(); ++o) {
+    const OutputNode &a = now.outputs[o], &b = before.outputs[o];
+    if (a.resource != b.resource || a.version != b.version || a.final_state != b.final_state) return false;
+  }
   bool differ = false;  // accumulated without branches: almost every frame compares equal
   for (std::size_t p = 0; p < now.passes.size(); ++p) {
     const PassNode &a = now.passes[p], &b = before.passes[p];
@@ -748,10 +749,11 @@ bool same_declarations(const GraphData& now, const GraphData& before) {
     }
   }
   if (differ) return false;
-  for (std::size_t o = 0; o < now.outputs.size(); ++o) {
-    const OutputNode &a = now.outputs[o], &b = before.outputs[o];
-    if (a.resource != b.resource || a.version != b.version || a.final_state != b.final_state) return false;
-  }
+  // Versions, use bits, pass kinds and culling roots follow from these in declaration order
+  // (and each pass's first access from the counts before it).
+  if (!now.accesses.empty() &&
+      std::memcmp(now.accesses.data(), before.accesses.data(), now.accesses.size() * sizeof(AccessNode)) != 0)
+    return false;
   return true;
 }
 

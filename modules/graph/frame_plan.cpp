@@ -32,6 +32,19 @@ constexpr std::uint64_t align_up(std::uint64_t value, std::uint64_t alignment) {
   return (value + alignment - 1) / alignment * alignment;
 }
 
+// A placement alignment, with whether it is a power of two (Vulkan's always are) decided
+// once per distinct requirement rather than per free run tried.
+struct Alignment {
+  std::uint64_t value = 1;
+  bool power_of_two = true;
+  Alignment() = default;
+  explicit Alignment(std::uint64_t alignment)
+      : value(std::max<std::uint64_t>(alignment, 1)), power_of_two((value & (value - 1)) == 0) {}
+  [[nodiscard]] std::uint64_t up(std::uint64_t x) const {
+    return power_of_two ? (x + value - 1) & ~(value - 1) : (x + value - 1) / value * value;
+  }
+};
+
 gpu::TextureDescriptor texture_descriptor(const ResourceInfo& r) {
   return gpu::TextureDescriptor{std::string(r.name), r.extent, r.format, r.texture_usage, r.mip_level_count,
                                 r.dimension};
@@ -63,10 +76,11 @@ struct HeapBuilder {
   // the general best-fit search would.
   // Returns the offset; `appended` is set when the resource got a fresh slot at the end of
   // the heap with no padding, whose segment place() has already recorded (occupy() not needed).
-  [[gnu::always_inline]] inline std::uint64_t place(std::uint64_t bytes, std::uint64_t alignment, std::uint32_t resource, bool& appended) {
+  [[gnu::always_inline]] inline std::uint64_t place(std::uint64_t bytes, const Alignment& alignment, std::uint32_t resource,
+                                                    bool& appended) {
     appended = false;
     if (free.empty() && bytes > 0) {
-      const std::uint64_t at = align_up(size, alignment);
+      const std::uint64_t at = alignment.up(size);
       if (at == size) {
         size = at + bytes;
         segments.push_back(Segment{at, size, resource});
@@ -79,7 +93,7 @@ struct HeapBuilder {
     std::size_t best_run = 0;
     for (std::size_t i = 0, n = free.size(); i < n; ++i) {
       const Range& f = free[i];
-      const std::uint64_t at = align_up(f.begin, alignment);
+      const std::uint64_t at = alignment.up(f.begin);
       if (at + bytes <= f.end && f.end - f.begin < best_size) {
         best = at;
         best_size = f.end - f.begin;
@@ -88,7 +102,7 @@ struct HeapBuilder {
     }
     if (best == none) {
       const bool trailing = !free.empty() && free.back().end == size;
-      best = align_up(trailing ? free.back().begin : size, alignment);
+      best = alignment.up(trailing ? free.back().begin : size);
       const std::uint64_t grown = best + bytes;
       if (trailing) free.back().end = grown;
       else free.push_back(Range{size, grown});
@@ -225,7 +239,8 @@ class Sizer {
 
   // The requirements of `info`, or false with `error` set. Estimates (the common case of
   // compiling without a device) need no Result and are repeated in a row for equal textures.
-  [[gnu::always_inline]] bool size(const ResourceInfo& info, gpu::MemoryRequirements& out, Error& error) {
+  [[gnu::always_inline]] bool size(const ResourceInfo& info, gpu::MemoryRequirements& out, Alignment& alignment,
+                                   Error& error) {
     const bool texture = info.type == ResourceType::Texture;
     if (estimating_ && texture) {
       if (!have_last_ || info.extent.width != last_.extent.width || info.extent.height != last_.extent.height ||
@@ -236,9 +251,11 @@ class Sizer {
         last_.mip_level_count = info.mip_level_count;
         last_.dimension = info.dimension;
         last_requirements_ = estimate_requirements(info);
+        last_alignment_ = Alignment(last_requirements_.alignment);
         have_last_ = true;
       }
       out = last_requirements_;
+      alignment = last_alignment_;
       return true;
     }
     Result<gpu::MemoryRequirements> req = query(info);
@@ -247,6 +264,7 @@ class Sizer {
       return false;
     }
     out = *req;
+    alignment = Alignment(req->alignment);
     return true;
   }
 
@@ -269,6 +287,7 @@ class Sizer {
   bool estimating_;  // textures are estimated (no device, no custom function)
   ResourceInfo last_;  // the texture last_requirements_ was estimated for
   gpu::MemoryRequirements last_requirements_{};
+  Alignment last_alignment_;
   bool have_last_ = false;
 };
 
@@ -371,10 +390,11 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
   std::size_t heaps_of_type[2] = {0, 0}, only_heap[2] = {none, none};  // per ResourceType
 
   // Places one transient at its first use; its takeovers become barriers right after.
-  auto place = [&](std::uint32_t r) __attribute__((noinline)) {
+  auto place = [&](std::uint32_t r) {
     ResourceInfo& info = info_of[r];
     gpu::MemoryRequirements requirements;
-    if (!sizer.size(info, requirements, size_error)) [[unlikely]] {
+    Alignment alignment;
+    if (!sizer.size(info, requirements, alignment, size_error)) [[unlikely]] {
       info.bytes = 0;
       errors.push_back(GraphError{GraphErrorKind::Memory,
                                   weft::format("{}: cannot size its memory: {}", graph.describe(r), size_error.message),
@@ -406,7 +426,7 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
     HeapBuilder& h = heaps[heap];
     h.type_bits &= req->type_bits;
     bool appended = false;
-    const std::uint64_t offset = h.place(req->size, std::max<std::uint64_t>(req->alignment, 1), r, appended);
+    const std::uint64_t offset = h.place(req->size, alignment, r, appended);
     const auto first_takeover = std::uint32_t(takeovers.size());
     if (!appended) h.occupy(offset, req->size, r, takeovers, first_takeover);
     info.heap = std::uint32_t(heap);
