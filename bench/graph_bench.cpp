@@ -2,8 +2,8 @@
 // transient memory aliasing saves on a realistic frame, and (with a Vulkan device) the
 // per-frame CPU overhead of executing through the graph against recording by hand.
 //
-//   build-release/bin/weft-bench-graph [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap] [--steady-only]
-//                                      [--unchanged-only]
+//   build/bin/weft-bench-graph [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap]
+//                              [--builds first,changed,unchanged]
 //
 // Prints markdown tables. Times are medians over --runs runs (default 15) of
 // std::chrono::steady_clock, plus thread-CPU time (steadier on a shared machine). Graph
@@ -482,12 +482,26 @@ int main(int argc, char** argv) {
       use_device = false;
     } else if (std::strcmp(argv[i], "--keep-heap") == 0) {
       keep_heap = true;
-    } else if (std::strcmp(argv[i], "--steady-only") == 0) {
-      builds = {Build::Changed};  // e.g. to count instructions of a full compile on warm arrays alone
-    } else if (std::strcmp(argv[i], "--unchanged-only") == 0) {
-      builds = {Build::Unchanged};
+    } else if (std::strcmp(argv[i], "--builds") == 0 && i + 1 < argc) {
+      // e.g. `--builds changed` to count the instructions of one case alone under callgrind
+      builds.clear();
+      std::string list = argv[++i];
+      bool known = true;
+      for (std::size_t start = 0; start <= list.size();) {
+        const std::size_t end = std::min(list.find(',', start), list.size());
+        const std::string item = list.substr(start, end - start);
+        if (item == "first") builds.push_back(Build::First);
+        else if (item == "changed") builds.push_back(Build::Changed);
+        else if (item == "unchanged") builds.push_back(Build::Unchanged);
+        else known = false;
+        start = end + 1;
+      }
+      if (builds.empty() || !known) {
+        std::fprintf(stderr, "--builds: a comma-separated list of first, changed, unchanged\n");
+        return 2;
+      }
     } else {
-      std::fprintf(stderr, "usage: %s [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap] [--steady-only] [--unchanged-only]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap] [--builds first,changed,unchanged]\n", argv[0]);
       return 2;
     }
   }

@@ -677,6 +677,12 @@ std::expected<CompiledGraph, GraphErrors> RenderGraph::compile(const CompileOpti
       state->reused = true;
       for (std::uint32_t p = 0; p < state->pass_count; ++p) state->passes[p].name = data_->passes[p].name;
       for (std::uint32_t r = 0; r < state->resource_count; ++r) state->resources[r].name = data_->resources[r].name;
+      // An older plan this graph kept (from two frames ago) keeps its arrays but not its gpu
+      // memory: only one frame's transients stay allocated between frames.
+      {
+        const std::lock_guard lock(data_->spare_state_mutex);
+        if (data_->spare_state) detail::drop_gpu_objects(*data_->spare_state);
+      }
       return CompiledGraph(std::move(state));
     }
   }
