@@ -49,16 +49,16 @@ GraphData::GraphData(std::string_view graph_name) : name(graph_name) {
   accesses.reserve(192);
 }
 
-GraphData::~GraphData() {
-  for (PassNode& pass : passes)
-    if (pass.execute.destroy) pass.execute.destroy(pass.execute.callable, pass.execute.data);
-}
+GraphData::~GraphData() { release_callbacks(); }
 
 void GraphData::release_callbacks() {
+  // Most callbacks capture by reference and need no destructor: then there is nothing to walk.
+  if (!has_destructors) return;
   for (PassNode& pass : passes) {
     if (pass.execute.destroy) pass.execute.destroy(pass.execute.callable, pass.execute.data);
     pass.execute = ErasedExecute{};
   }
+  has_destructors = false;
 }
 
 void GraphData::clear() {
@@ -314,7 +314,8 @@ using detail::GraphData;
 
 BufferHandle PassBuilder::create_buffer(std::string_view name, const BufferDesc& desc) {
   const std::uint32_t index = detail::add_resource(*graph_, name, ResourceType::Buffer, pass_);
-  graph_->resources[index].buffer_desc = desc;
+  graph_->resources[index].buffer_desc.size = desc.size;  // field by field (see ResourceNode)
+  graph_->resources[index].buffer_desc.extra_usage = desc.extra_usage;
   if (desc.size == 0)
     detail::add_error(*graph_, GraphErrorKind::InvalidDescriptor,
                       weft::format("pass '{}': creates buffer '{}' with a zero size", graph_->passes[pass_].name, name),
@@ -430,7 +431,10 @@ TextureHandle RenderGraph::import_texture(std::string_view name, const gpu::Text
   detail::ResourceNode& r = data_->resources[index];
   r.imported = true;
   r.initial_state = initial_state;
-  r.texture_desc.size = desc.size;
+  r.texture_desc.size.absolute.width = desc.size.width;  // field by field (see ResourceNode)
+  r.texture_desc.size.absolute.height = desc.size.height;
+  r.texture_desc.size.absolute.depth_or_layers = desc.size.depth_or_layers;
+  r.texture_desc.size.is_relative = false;
   r.texture_desc.format = desc.format;
   r.texture_desc.mip_level_count = desc.mip_level_count;
   r.texture_desc.dimension = desc.dimension;

@@ -5,7 +5,7 @@ module;
 #include <algorithm>
 #include <array>
 #include <atomic>
-#include <bit>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <expected>
@@ -713,6 +713,33 @@ std::expected<CompiledGraph, GraphErrors> RenderGraph::compile(const CompileOpti
 
 namespace weft::detail {
 
+namespace {
+
+// The bits in which the first `Bytes` bytes of `a` and `b` differ, OR-ed together by word.
+template <std::size_t Bytes>
+[[gnu::always_inline]] inline std::uint64_t differing_bits(const void* a, const void* b) {
+  static_assert(Bytes % 4 == 0, "nodes compared by whole 4-byte words");
+  const auto* x = static_cast<const std::byte*>(a);
+  const auto* y = static_cast<const std::byte*>(b);
+  std::uint64_t diff = 0;
+  std::size_t i = 0;
+  for (; i + 8 <= Bytes; i += 8) {
+    std::uint64_t u, v;
+    std::memcpy(&u, x + i, 8);
+    std::memcpy(&v, y + i, 8);
+    diff |= u ^ v;
+  }
+  if constexpr (Bytes % 8 != 0) {
+    std::uint32_t u, v;
+    std::memcpy(&u, x + i, 4);
+    std::memcpy(&v, y + i, 4);
+    diff |= u ^ v;
+  }
+  return diff;
+}
+
+}  // namespace
+
 bool same_declarations(const GraphData& now, const GraphData& before) {
   if (now.passes.size() != before.passes.size() || now.resources.size() != before.resources.size() ||
       now.accesses.size() != before.accesses.size() || now.versions.size() != before.versions.size() ||
@@ -726,35 +753,14 @@ bool same_declarations(const GraphData& now, const GraphData& before) {
     const OutputNode &a = now.outputs[o], &b = before.outputs[o];
     if (a.resource != b.resource || a.version != b.version || a.final_state != b.final_state) return false;
   }
-  bool differ = false;  // accumulated without branches: almost every frame compares equal
-  for (std::size_t p = 0; p < now.passes.size(); ++p) {
-    const PassNode &a = now.passes[p], &b = before.passes[p];
-    differ |= (a.access_count != b.access_count) | (a.side_effect != b.side_effect) |
-              (a.kind_declared != b.kind_declared) | (a.declared_kind != b.declared_kind);
-  }
-  if (differ) return false;
-  for (std::size_t r = 0; r < now.resources.size(); ++r) {
-    const ResourceNode &a = now.resources[r], &b = before.resources[r];
-    differ |= (a.type != b.type) | (a.imported != b.imported) | (a.initial_state != b.initial_state);
-    if (a.type == ResourceType::Texture) {
-      const TextureDesc &x = a.texture_desc, &y = b.texture_desc;
-      const bool relative = x.size.is_relative;
-      // Sizes as bits: equal bits give equal plans (and a -0 or NaN size is an error anyway).
-      differ |= (relative != y.size.is_relative) | (x.format != y.format) | (x.mip_level_count != y.mip_level_count) |
-                (x.dimension != y.dimension) | (x.extra_usage != y.extra_usage) |
-                (a.imported_texture_usage != b.imported_texture_usage);
-      if (relative)
-        differ |= (std::bit_cast<std::uint32_t>(x.size.relative.width) != std::bit_cast<std::uint32_t>(y.size.relative.width)) |
-                  (std::bit_cast<std::uint32_t>(x.size.relative.height) != std::bit_cast<std::uint32_t>(y.size.relative.height));
-      else
-        differ |= (x.size.absolute.width != y.size.absolute.width) | (x.size.absolute.height != y.size.absolute.height) |
-                  (x.size.absolute.depth_or_layers != y.size.absolute.depth_or_layers);
-    } else {
-      differ |= (a.buffer_desc.size != b.buffer_desc.size) | (a.buffer_desc.extra_usage != b.buffer_desc.extra_usage) |
-                (a.imported_buffer_usage != b.imported_buffer_usage);
-    }
-  }
-  if (differ) return false;
+  // Passes and resources up to their names, word by word (a memcmp call per node costs more
+  // than the comparison), accumulated without branches: almost every frame compares equal.
+  std::uint64_t differ = 0;
+  for (std::size_t p = 0; p < now.passes.size(); ++p)
+    differ |= differing_bits<offsetof(PassNode, name)>(&now.passes[p], &before.passes[p]);
+  for (std::size_t r = 0; r < now.resources.size(); ++r)
+    differ |= differing_bits<offsetof(ResourceNode, name)>(&now.resources[r], &before.resources[r]);
+  if (differ != 0) return false;
   // Versions, use bits, pass kinds and culling roots follow from these in declaration order
   // (and each pass's first access from the counts before it).
   if (!now.accesses.empty() &&

@@ -675,7 +675,8 @@ constexpr std::uint16_t use_bit(BufferUse use) { return std::uint16_t(1u << unsi
 // writes an imported resource (a root of culling), and whether its attachments were declared
 // with different sizes (compile() then compares the resolved extents).
 struct PassNode {
-  std::string_view name;
+  // Compared byte for byte between frames by same_declarations() up to `name`: values only,
+  // and the padding stays zero (nodes are value-initialized and set field by field).
   std::uint32_t first_access = 0;
   std::uint32_t access_count = 0;
   std::uint32_t first_attachment = invalid_index;  // the resource of its first attachment
@@ -685,27 +686,45 @@ struct PassNode {
   bool side_effect = false;
   bool writes_import = false;
   bool attachment_sizes_differ = false;  // as declared (relative or absolute), before resolving
+  // Not compared: a reused plan takes this frame's names and callbacks.
+  std::string_view name;
   ErasedExecute execute;
 };
 
 struct ResourceNode {
-  std::string_view name;
+  // Compared byte for byte between frames by same_declarations() up to `name` (see PassNode):
+  // descriptors are therefore copied in field by field, never as whole structs (which would
+  // copy the caller's padding). The fields setup reads on every declaration come first.
   ResourceType type = ResourceType::Texture;
   bool imported = false;
+  gpu::Access initial_state = gpu::Access::Undefined;
+  std::uint16_t uses = 0;  // use bits over every pass's accesses (its gpu usage)
   std::uint32_t creator = invalid_index;  // the pass that created a transient
   std::uint32_t latest_slot = invalid_index;
-  std::uint16_t uses = 0;  // use bits over every pass's accesses (its gpu usage)
   std::uint32_t last_pass = invalid_index;  // the last pass that declared a use of it
-  // Textures.
-  TextureDesc texture_desc;
-  const gpu::Texture* texture = nullptr;   // imported gpu object, if any
+  TextureDesc texture_desc;                 // textures
   gpu::TextureUsage imported_texture_usage = gpu::TextureUsage::None;  // None = unknown
-  // Buffers.
-  BufferDesc buffer_desc;
-  const gpu::Buffer* buffer = nullptr;
+  BufferDesc buffer_desc;                   // buffers
   gpu::BufferUsage imported_buffer_usage = gpu::BufferUsage::None;
-  gpu::Access initial_state = gpu::Access::Undefined;
+  // Not compared: names and imported gpu objects may differ between frames of one plan.
+  std::string_view name;
+  const gpu::Texture* texture = nullptr;  // imported gpu object, if any
+  const gpu::Buffer* buffer = nullptr;
 };
+
+// Field by field, so that the node's zeroed padding stays zero (see ResourceNode).
+inline void set_texture_desc(TextureDesc& to, const TextureDesc& from) {
+  to.size.absolute.width = from.size.absolute.width;
+  to.size.absolute.height = from.size.absolute.height;
+  to.size.absolute.depth_or_layers = from.size.absolute.depth_or_layers;
+  to.size.relative.width = from.size.relative.width;
+  to.size.relative.height = from.size.relative.height;
+  to.size.is_relative = from.size.is_relative;
+  to.format = from.format;
+  to.mip_level_count = from.mip_level_count;
+  to.dimension = from.dimension;
+  to.extra_usage = from.extra_usage;
+}
 
 // One version of one resource; versions of a resource link backwards through `previous`.
 struct VersionNode {
@@ -771,6 +790,7 @@ struct GraphData {
   // Last frame's declarations (the other set of arrays reset() alternates with), which a
   // compiled plan may be reused for; null when there is no last frame.
   GraphData* previous = nullptr;
+  bool has_destructors = false;  // some pass's data or callable is not trivially destructible
 
   [[nodiscard]] std::string describe(std::uint32_t resource) const;  // "texture 'x'"
   [[nodiscard]] std::string_view current_pass_name() const {
@@ -994,6 +1014,7 @@ inline PassBuilder begin_pass(GraphData& g, std::string_view name, const ErasedE
   pass.name = g.arena.copy(name);
   pass.first_access = std::uint32_t(g.accesses.size());
   pass.execute = execute;
+  if (execute.destroy) g.has_destructors = true;
   g.current_pass = index;
   return PassBuilder(&g, index);
 }
@@ -1011,7 +1032,7 @@ namespace weft {
 
 [[gnu::always_inline]] inline TextureHandle PassBuilder::create_texture(std::string_view name, const TextureDesc& desc) {
   const std::uint32_t index = detail::add_resource(*graph_, name, ResourceType::Texture, pass_);
-  graph_->resources[index].texture_desc = desc;
+  detail::set_texture_desc(graph_->resources[index].texture_desc, desc);
   const gpu::Extent3D& e = desc.size.absolute;
   const bool valid = desc.format != gpu::Format::Undefined && desc.mip_level_count != 0 &&
                      (desc.size.is_relative ? desc.size.relative.width > 0.0f && desc.size.relative.height > 0.0f
