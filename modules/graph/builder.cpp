@@ -181,6 +181,9 @@ std::uint32_t declare_any(GraphData& g, std::uint32_t pass, ResourceType type, s
     report_invalid_handle(g, pass, type, resource, version, write);
     return version;
   }
+  // What this pass starts from makes its producer needed (see PassNode::consumed).
+  if (const std::uint32_t producer = g.versions[slot].producer; producer != invalid_index && producer != pass)
+    g.passes[producer].consumed = true;
   PassNode& pass_node = g.passes[pass];
 
   // A second declaration of the same resource by this pass merges into the first.

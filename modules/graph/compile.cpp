@@ -12,6 +12,7 @@ module;
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <numeric>
 #include <queue>
 #include <string>
 #include <string_view>
@@ -103,7 +104,15 @@ class Scheduler {
     move_errors(output_errors);
     s_.order.clear();
     s_.order.reserve(P);
-    if (!g_.backward_edges) {
+    if (!g_.backward_edges && all_used_) {
+      // Every pass is a root or used by a later one: walking back from the last pass (a root,
+      // as nothing comes after it), every pass is needed. Nothing to cull, declaration order
+      // is the order, and each resource's last user is the last pass that declared it.
+      s_.order.resize(P);
+      std::iota(s_.order.begin(), s_.order.end(), 0u);
+      for (std::uint32_t r = 0; r < s_.resource_count; ++r)
+        if (last_pass_[r] == invalid_index) last_pass_[r] = g_.resources[r].last_pass;
+    } else if (!g_.backward_edges) {
       cull_in_declaration_order();
     } else {
       cull_from_roots();
@@ -121,6 +130,7 @@ class Scheduler {
   std::vector<GraphError>& errors_;
   std::vector<std::uint8_t>& alive_;
   std::vector<std::uint32_t>& last_pass_;
+  bool all_used_ = true;  // every pass is a root of culling or used by a later pass
 
   void error(GraphErrorKind kind, std::string message, std::vector<std::string> passes,
              std::vector<std::string> resources) {
@@ -347,6 +357,7 @@ class Scheduler {
       info.culled = false;
       info.order_position = invalid_index;
       if (pass.side_effect || pass.writes_import) alive_[p] = 1;
+      all_used_ = all_used_ && (alive_[p] || pass.consumed);
       if (pass.kind_declared && pass.declared_kind != PassKind::Render && pass.declared_kind != inferred)
         check_declared_kind(p);
     }

@@ -672,8 +672,9 @@ constexpr std::uint16_t use_bit(BufferUse use) { return std::uint16_t(1u << unsi
 
 // What setup learns about a pass as it declares, so that compile() need not sweep the
 // accesses again to find it: the uses it makes of textures and buffers (its kind), whether it
-// writes an imported resource (a root of culling), and whether its attachments were declared
-// with different sizes (compile() then compares the resolved extents).
+// writes an imported resource (a root of culling), whether a later pass uses what it wrote
+// (when every pass is a root or so used, nothing is culled), and whether its attachments were
+// declared with different sizes (compile() then compares the resolved extents).
 struct PassNode {
   // Compared byte for byte between frames by same_declarations() up to `name`: values only,
   // and the padding stays zero (nodes are value-initialized and set field by field).
@@ -686,6 +687,7 @@ struct PassNode {
   bool side_effect = false;
   bool writes_import = false;
   bool attachment_sizes_differ = false;  // as declared (relative or absolute), before resolving
+  bool consumed = false;  // a later pass uses a version this pass wrote
   // Not compared: a reused plan takes this frame's names and callbacks.
   std::string_view name;
   ErasedExecute execute;
@@ -940,13 +942,28 @@ inline bool same_declared_size(const TextureSize& a, const TextureSize& b) {
   return slot;
 }
 
+// The next version of `resource` after its latest, `after` (the slot of version `version`).
+[[gnu::always_inline]] inline std::uint32_t next_version(GraphData& g, std::uint32_t resource, std::uint32_t after,
+                                                         std::uint32_t version, std::uint32_t producer) {
+  const auto slot = std::uint32_t(g.versions.size());
+  VersionNode& v = g.versions.emplace_back();  // in place: see new_version
+  v.resource = resource;
+  v.version = version + 1;
+  v.producer = producer;
+  v.previous = after;
+  g.resources[resource].latest_slot = slot;
+  return slot;
+}
+
 [[gnu::always_inline]] inline std::uint32_t add_resource(GraphData& g, std::string_view name, ResourceType type, std::uint32_t creator) {
   const auto index = std::uint32_t(g.resources.size());
   ResourceNode& r = g.resources.emplace_back();
   r.name = g.arena.copy(name);
   r.type = type;
   r.creator = creator;
-  new_version(g, index, invalid_index);
+  // Version 0, which nobody produced.
+  r.latest_slot = std::uint32_t(g.versions.size());
+  g.versions.emplace_back().resource = index;
   return index;
 }
 
@@ -987,6 +1004,8 @@ inline bool same_declared_size(const TextureSize& a, const TextureSize& b) {
     VersionNode& input = g.versions[slot];
     if (node.type == type && input.version == version && node.last_pass != pass &&
         !(write && input.next_writer != invalid_index)) [[likely]] {
+      // What this pass starts from (read, or written over) makes its producer needed.
+      if (input.producer != invalid_index) g.passes[input.producer].consumed = true;
       AccessNode& a = g.accesses.emplace_back();
       a.resource = resource;
       a.slot = slot;
@@ -997,7 +1016,7 @@ inline bool same_declared_size(const TextureSize& a, const TextureSize& b) {
       a.imported = node.imported;
       if (write) {
         input.next_writer = pass;
-        a.out_slot = new_version(g, resource, pass);  // `input` is stale from here on
+        a.out_slot = next_version(g, resource, slot, version, pass);  // `input` is stale from here on
       }
       note_access(g, pass, node, resource, type, slot, use, !write, write);
       return write ? version + 1 : version;
