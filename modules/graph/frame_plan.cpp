@@ -291,33 +291,43 @@ class Sizer {
   bool have_last_ = false;
 };
 
-// Aliasing groups: resources connected by takeovers, numbered by their lowest index. Every
-// union makes the lower root the parent, so a group's root is its lowest index, and a
-// resource is in a group of two or more exactly when it took over or was taken over.
+// Aliasing groups: resources connected by takeovers, numbered in the order of their
+// lowest-index members. A resource being placed joins the group of the memory it takes over
+// (one store); only a resource taking over memory of two groups merges them, through a
+// union-find over group ids, which most frames never walk.
 class AliasGroups {
  public:
-  explicit AliasGroups(CompileScratch& scratch) : parent_(scratch.parent), linked_(scratch.linked) {}
-  void link(std::uint32_t a, std::uint32_t b, std::uint32_t resource_count) {
+  explicit AliasGroups(CompileScratch& scratch)
+      : group_(scratch.alias_group_of), parent_(scratch.alias_group_parent) {}
+  // `r` (being placed) takes over memory `occupant` used.
+  void link(std::uint32_t r, std::uint32_t occupant, std::uint32_t resource_count) {
     if (!ready_) {  // a frame without takeovers never fills these
-      parent_.resize(resource_count);
-      std::iota(parent_.begin(), parent_.end(), 0u);
-      linked_.assign(resource_count, 0);
+      group_.assign(resource_count, invalid_index);
+      parent_.clear();
       ready_ = true;
     }
-    // `a` (the resource being placed) is in no group yet when it links its first occupant.
-    const std::uint32_t x = linked_[a] ? root(a) : a, y = root(b);
+    std::uint32_t theirs = group_[occupant];
+    if (theirs == invalid_index) {
+      theirs = group_[occupant] = std::uint32_t(parent_.size());
+      parent_.push_back(theirs);
+    }
+    const std::uint32_t mine = group_[r];
+    if (mine == invalid_index) {
+      group_[r] = theirs;
+      return;
+    }
+    const std::uint32_t x = root(mine), y = root(theirs);
     parent_[std::max(x, y)] = std::min(x, y);
-    linked_[a] = linked_[b] = 1;
   }
-  void number(std::span<ResourceInfo> resources, std::vector<std::uint32_t>& group_of_root) {
+  void number(std::span<ResourceInfo> resources, std::vector<std::uint32_t>& number_of_root) {
     if (!ready_) return;
-    group_of_root.assign(resources.size(), invalid_index);
+    number_of_root.assign(parent_.size(), invalid_index);
     std::uint32_t groups = 0;
     for (std::uint32_t r = 0; r < resources.size(); ++r) {
-      if (!linked_[r]) continue;
-      const std::uint32_t top = root(r);
-      if (group_of_root[top] == invalid_index) group_of_root[top] = groups++;
-      resources[r].alias_group = group_of_root[top];
+      if (group_[r] == invalid_index) continue;
+      const std::uint32_t top = root(group_[r]);
+      if (number_of_root[top] == invalid_index) number_of_root[top] = groups++;
+      resources[r].alias_group = number_of_root[top];
     }
   }
 
@@ -326,8 +336,8 @@ class AliasGroups {
     while (parent_[x] != x) x = parent_[x] = parent_[parent_[x]];
     return x;
   }
-  std::vector<std::uint32_t>& parent_;
-  std::vector<std::uint8_t>& linked_;
+  std::vector<std::uint32_t>& group_;   // per resource: its group id, or invalid_index
+  std::vector<std::uint32_t>& parent_;  // per group id: union-find parent
   bool ready_ = false;
 };
 
@@ -495,7 +505,7 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
   }
   state.barrier_begin[positions + 1] = std::uint32_t(state.barriers.size());
 
-  groups.number(resources, scratch.group_of_root);
+  groups.number(resources, scratch.alias_group_number);
   for (std::size_t h = 0; h < heap_count; ++h) {
     plan.heaps.push_back(MemoryHeap{heaps[h].type, heaps[h].type_bits, heaps[h].size});
     plan.aliased_bytes += heaps[h].size;

@@ -821,8 +821,7 @@ struct CompileScratch {
   std::vector<std::uint8_t> alive;
   std::vector<std::uint32_t> stack;
   std::vector<std::uint32_t> last_pass;  // per resource: the last pass using it (release after it)
-  std::vector<std::uint32_t> parent, group_of_root;
-  std::vector<std::uint8_t> linked;
+  std::vector<std::uint32_t> alias_group_of, alias_group_parent, alias_group_number;
   std::vector<gpu::Access> current;
   std::vector<std::uint8_t> released;
   HeapBuilders heaps;
