@@ -388,6 +388,7 @@ Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& o
   if (!built) return std::unexpected(built.error());
   auto compiled = built->first->compile({.output_extent = {w, h, 1}, .device = s.device});
   if (!compiled) return std::unexpected(compiled.error().to_error());
+  ++(compiled->plan_reused() ? s.stats.graph_plans_reused : s.stats.graph_plans);
   auto stats = compiled->execute(*s.device, {.timestamps = options.timestamps});
   if (!stats) return std::unexpected(stats.error());
   auto pixels = s.device->queue().read_texture(*s.output);

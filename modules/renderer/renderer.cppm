@@ -61,6 +61,9 @@ class Renderer {
   // How many times each cache did real work (tests assert the second frame does none).
   struct CacheStats {
     std::uint32_t mesh_uploads = 0, environment_uploads = 0, texture_uploads = 0, pass_creations = 0;
+    // Frames whose graph was planned afresh, and frames that reused the last frame's plan
+    // (and its transient textures: RenderGraph::reset()).
+    std::uint32_t graph_plans = 0, graph_plans_reused = 0;
   };
   [[nodiscard]] CacheStats cache_stats() const;
 

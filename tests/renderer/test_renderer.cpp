@@ -152,7 +152,8 @@ TEST_CASE("a glTF file renders: node transform, material colour and camera come 
 TEST_CASE("a second frame of the same scene uploads and compiles nothing new") {
   auto s = load(furnace);
   auto& r = shared_renderer();
-  REQUIRE(r.render(s));
+  auto first = r.render(s);
+  REQUIRE(first);
   const auto before = r.cache_stats();
   auto frame = r.render(s);
   REQUIRE(frame);
@@ -161,6 +162,15 @@ TEST_CASE("a second frame of the same scene uploads and compiles nothing new") {
   CHECK(after.environment_uploads == before.environment_uploads);
   CHECK(after.texture_uploads == before.texture_uploads);
   CHECK(after.pass_creations == before.pass_creations);
+  // The same frame again: the graph takes the last plan (and its transients) over, and the
+  // image is the same to the byte.
+  CHECK(after.graph_plans == before.graph_plans);
+  CHECK(after.graph_plans_reused == before.graph_plans_reused + 1);
+  CHECK(frame->image.pixels == first->image.pixels);
+  // Another size is another plan.
+  auto smaller = r.render(s, {.width = 48, .height = 32});
+  REQUIRE(smaller);
+  CHECK(r.cache_stats().graph_plans == after.graph_plans + 1);
   weft::test::expect_no_validation_messages();
 }
 
