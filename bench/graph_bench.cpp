@@ -380,7 +380,7 @@ void overhead_table(gpu::Device& device, int runs) {
               "frame = record + submit + wait.\n\n");
   std::printf("| passes | by hand: record µs | graph: record µs | overhead µs/pass | by hand: frame ms | graph: frame ms |\n");
   std::printf("|---:|---:|---:|---:|---:|---:|\n");
-  for (int n : {10, 100, 500}) {
+  for (int n : {10, 100, 500, 5000}) {
     const std::vector<std::string> step_names = names("step", n);
     // By hand: dedicated buffers, explicit barriers, a debug label per pass as the graph does.
     std::vector<gpu::Buffer> buffers;
