@@ -118,8 +118,14 @@ void CommandEncoder::pop_debug_group() {
 
 void CommandEncoder::barrier(std::span<const TextureBarrier> textures, std::span<const BufferBarrier> buffers) {
   if (!check_outside_pass("barrier")) return;
-  std::vector<VkImageMemoryBarrier2> images;
-  images.reserve(textures.size());
+  // Most barriers move a few textures: those go on the stack, so recording a frame's barriers
+  // allocates nothing (a render graph issues one call per pass).
+  constexpr std::size_t on_stack = 16;
+  VkImageMemoryBarrier2 small[on_stack];
+  std::vector<VkImageMemoryBarrier2> large;
+  if (textures.size() > on_stack) large.resize(textures.size());
+  VkImageMemoryBarrier2* const images = textures.size() > on_stack ? large.data() : small;
+  std::uint32_t image_count = 0;
   for (const auto& b : textures) {
     const bool depth = format_info(b.texture->format()).depth;
     const StageAccess src = stage_access(b.before, depth), dst = stage_access(b.after, depth);
@@ -133,7 +139,7 @@ void CommandEncoder::barrier(std::span<const TextureBarrier> textures, std::span
     m.srcQueueFamilyIndex = m.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     m.image = b.texture->image_;
     m.subresourceRange = {aspect_of(b.texture->format()), 0, VK_REMAINING_MIP_LEVELS, 0, VK_REMAINING_ARRAY_LAYERS};
-    images.push_back(m);
+    images[image_count++] = m;
     b.texture->state_ = b.after;
   }
   // Buffers need no layout, so one global memory barrier covers them all.
@@ -148,8 +154,8 @@ void CommandEncoder::barrier(std::span<const TextureBarrier> textures, std::span
   VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
   dep.memoryBarrierCount = buffers.empty() ? 0 : 1;
   dep.pMemoryBarriers = &global;
-  dep.imageMemoryBarrierCount = std::uint32_t(images.size());
-  dep.pImageMemoryBarriers = images.data();
+  dep.imageMemoryBarrierCount = image_count;
+  dep.pImageMemoryBarriers = images;
   if (dep.memoryBarrierCount || dep.imageMemoryBarrierCount) vkCmdPipelineBarrier2(cmd_, &dep);
 }
 
