@@ -391,23 +391,18 @@ int lighting_bench(int argc, char** argv) {
     ssdf::BakeMesh probes;
     cluster::Matrix ssdf;
   };
-  std::map<std::uint32_t, Raw> raws;
-  auto raw_for = [&](std::uint32_t resolution, ssdf::VisibilityOptions visibility) -> const Raw* {
-    if (auto it = raws.find(resolution); it != raws.end()) return &it->second;
-    auto occluders = ssdf::merge_scene(s);
-    auto probes = ssdf::merge_objects(s, objects);
-    if (!occluders || !probes) return nullptr;
-    const ssdf::DirectionGrid grid(resolution);
-    auto start = std::chrono::steady_clock::now();
-    visibility.progress = false;
-    auto vis = ssdf::bake_visibility(*occluders, ssdf::vertex_probes(*probes), grid, visibility);
-    if (!vis) return nullptr;
-    const double vis_s = seconds_since(start);
-    start = std::chrono::steady_clock::now();
-    auto m = ssdf::signed_distances(grid, *vis, 0, false, false);
-    std::printf("(bake %ux%u: visibility %.1f s, distance transform %.1f s)\n\n", resolution, resolution, vis_s,
-                seconds_since(start));
-    return &raws.emplace(resolution, Raw{std::move(*probes), std::move(m)}).first->second;
+  std::map<std::uint64_t, Raw> raws;  // by the visibility part of the bake key
+  auto raw_for = [&](ssdf::BakeOptions options) -> const Raw* {
+    options.compression = {};  // tried below in many settings: not part of this bake
+    options.visibility.progress = false;
+    const std::uint64_t key = ssdf::bake_key(s, objects, options);
+    if (auto it = raws.find(key); it != raws.end()) return &it->second;
+    // The lighting feature's own bake, without its compression.
+    auto baked = ssdf::bake_object_distances(s, objects, options);
+    if (!baked) return nullptr;
+    std::printf("(bake %ux%u: visibility %.1f s, distance transform %.1f s)\n\n", options.resolution,
+                options.resolution, baked->timings.visibility_s, baked->timings.distance_s);
+    return &raws.emplace(key, Raw{std::move(baked->probes), std::move(baked->raw)}).first->second;
   };
 
   auto device_instance = gpu::Instance::create({.application_name = "weft-bench-ssdf"});
@@ -469,7 +464,7 @@ int lighting_bench(int argc, char** argv) {
       std::fprintf(stderr, "%s: %s\n", row.name.c_str(), parsed.error().what().c_str());
       return 1;
     }
-    const Raw* raw = raw_for(parsed->bake.resolution, parsed->bake.visibility);
+    const Raw* raw = raw_for(parsed->bake);
     if (!raw) return 1;
     const auto file = cache / ("ssdf-" + hex64(ssdf::bake_key(s, objects, parsed->bake)) + ".wssdf");
     auto known = compressed.find(file.string());

@@ -1,6 +1,7 @@
 // From a loaded scene to raw and compressed SSDFs: merge the objects into world space, bake
 // visibility, transform distances, compress — timing each stage.
 module;
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstddef>
@@ -47,66 +48,80 @@ Result<BakeMesh> merge_scene(const scene::Scene& scene) {
   return merge_objects(scene, all);
 }
 
-Result<ObjectBake> bake_objects(const scene::Scene& scene, std::span<const std::uint32_t> objects,
-                                const BakeOptions& options) {
-  using clock = std::chrono::steady_clock;
-  auto seconds = [](clock::time_point since) { return std::chrono::duration<double>(clock::now() - since).count(); };
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+// Visibility of every probe vertex against the occluders, then its signed distances.
+Result<cluster::Matrix> distances(const BakeMesh& occluders, const BakeMesh& probes, const BakeOptions& options,
+                                  BakeTimings& timings) {
+  const DirectionGrid grid(options.resolution);
+  auto start = std::chrono::steady_clock::now();
+  auto visibility = bake_visibility(occluders, vertex_probes(probes), grid, options.visibility);
+  if (!visibility) return std::unexpected(visibility.error());
+  timings.visibility_s = seconds_since(start);
+  start = std::chrono::steady_clock::now();
+  cluster::Matrix raw = signed_distances(grid, *visibility, options.visibility.threads, false, options.visibility.progress);
+  timings.distance_s = seconds_since(start);
+  return raw;
+}
+
+Result<Compressed> compressed(const BakeMesh& probes, const cluster::Matrix& raw, const BakeOptions& options,
+                              BakeTimings& timings) {
+  const auto start = std::chrono::steady_clock::now();
+  auto result = compress(probes, raw, options.compression);
+  timings.compression_s = seconds_since(start);
+  if (result)
+    log::info(weft::format("SSDF bake: visibility {:.2f} s, distance transform {:.2f} s, CPCA {:.2f} s",
+                           timings.visibility_s, timings.distance_s, timings.compression_s));
+  return result;
+}
+
+}  // namespace
+
+Result<ObjectBake> bake_object_distances(const scene::Scene& scene, std::span<const std::uint32_t> objects,
+                                         const BakeOptions& options) {
   auto occluders = merge_scene(scene);
   if (!occluders) return std::unexpected(occluders.error());
   auto probed = merge_objects(scene, objects);
   if (!probed) return std::unexpected(probed.error());
   ObjectBake result;
   result.probes = std::move(*probed);
-  const DirectionGrid grid(options.resolution);
   log::info(weft::format("SSDF bake: {} probed vertices of {} objects, {} occluder triangles, {} x {} directions",
-                         result.probes.vertex_count(), objects.size(), occluders->triangle_count(), grid.resolution(),
-                         grid.resolution()));
-  auto start = clock::now();
-  auto visibility = bake_visibility(*occluders, vertex_probes(result.probes), grid, options.visibility);
-  if (!visibility) return std::unexpected(visibility.error());
-  result.timings.visibility_s = seconds(start);
-  start = clock::now();
-  result.raw = signed_distances(grid, *visibility, options.visibility.threads, false, options.visibility.progress);
-  result.timings.distance_s = seconds(start);
-  visibility->visible = {};
-  start = clock::now();
-  auto compressed = compress(result.probes, result.raw, options.compression);
-  if (!compressed) return std::unexpected(compressed.error());
-  result.compressed = std::move(*compressed);
-  result.timings.compression_s = seconds(start);
-  log::info(weft::format("SSDF bake: visibility {:.2f} s, distance transform {:.2f} s, CPCA {:.2f} s",
-                         result.timings.visibility_s, result.timings.distance_s, result.timings.compression_s));
+                         result.probes.vertex_count(), objects.size(), occluders->triangle_count(),
+                         std::max(1u, options.resolution), std::max(1u, options.resolution)));
+  auto raw = distances(*occluders, result.probes, options, result.timings);
+  if (!raw) return std::unexpected(raw.error());
+  result.raw = std::move(*raw);
+  return result;
+}
+
+Result<ObjectBake> bake_objects(const scene::Scene& scene, std::span<const std::uint32_t> objects,
+                                const BakeOptions& options) {
+  auto result = bake_object_distances(scene, objects, options);
+  if (!result) return result;
+  auto c = compressed(result->probes, result->raw, options, result->timings);
+  if (!c) return std::unexpected(c.error());
+  result->compressed = std::move(*c);
   return result;
 }
 
 Result<Bake> bake(const scene::Scene& scene, const BakeOptions& options) {
-  using clock = std::chrono::steady_clock;
-  auto seconds = [](clock::time_point since) { return std::chrono::duration<double>(clock::now() - since).count(); };
   Bake result;
   auto merged = merge_scene(scene);
   if (!merged) return std::unexpected(merged.error());
   result.mesh = std::move(*merged);
-  const DirectionGrid grid(options.resolution);
   log::info(weft::format("SSDF bake: {} vertices, {} triangles, {} x {} directions", result.mesh.vertex_count(),
-                         result.mesh.triangle_count(), grid.resolution(), grid.resolution()));
-
-  auto start = clock::now();
-  auto visibility = bake_visibility(result.mesh, vertex_probes(result.mesh), grid, options.visibility);
-  if (!visibility) return std::unexpected(visibility.error());
-  result.timings.visibility_s = seconds(start);
-
-  start = clock::now();
-  result.raw = signed_distances(grid, *visibility, options.visibility.threads, false, options.visibility.progress);
-  result.timings.distance_s = seconds(start);
-  visibility->visible = {};
-
-  start = clock::now();
-  auto compressed = compress(result.mesh, result.raw, options.compression);
-  if (!compressed) return std::unexpected(compressed.error());
-  result.compressed = std::move(*compressed);
-  result.timings.compression_s = seconds(start);
-  log::info(weft::format("SSDF bake: visibility {:.2f} s, distance transform {:.2f} s, CPCA {:.2f} s",
-                         result.timings.visibility_s, result.timings.distance_s, result.timings.compression_s));
+                         result.mesh.triangle_count(), std::max(1u, options.resolution), std::max(1u, options.resolution)));
+  // The whole scene is both what is probed and what occludes.
+  auto raw = distances(result.mesh, result.mesh, options, result.timings);
+  if (!raw) return std::unexpected(raw.error());
+  result.raw = std::move(*raw);
+  auto c = compressed(result.mesh, result.raw, options, result.timings);
+  if (!c) return std::unexpected(c.error());
+  result.compressed = std::move(*c);
   return result;
 }
 

@@ -215,6 +215,12 @@ struct ObjectBake {
 };
 [[nodiscard]] Result<ObjectBake> bake_objects(const scene::Scene& scene, std::span<const std::uint32_t> objects,
                                               const BakeOptions& options = {});
+// bake_objects without the compression (`compressed` left empty): for a caller that tries
+// several compressions of one bake (weft-bench-ssdf), so that it bakes exactly as the
+// lighting feature does.
+[[nodiscard]] Result<ObjectBake> bake_object_distances(const scene::Scene& scene,
+                                                       std::span<const std::uint32_t> objects,
+                                                       const BakeOptions& options = {});
 // merge_scene restricted to some objects (in the order given).
 [[nodiscard]] Result<BakeMesh> merge_objects(const scene::Scene& scene, std::span<const std::uint32_t> objects);
 
