@@ -107,6 +107,58 @@ TEST_CASE("fill_buffer then copy, with the barrier the graph would place") {
   expect_no_validation_messages();
 }
 
+TEST_CASE("one barrier call moves any number of textures: on the stack (3) and beyond it (20)") {
+  for (std::uint32_t count : {3u, 20u}) {
+    INFO(count << " textures");
+    constexpr std::uint32_t side = 4;
+    std::vector<gpu::Texture> textures;
+    std::vector<gpu::Buffer> uploads, readbacks;
+    for (std::uint32_t i = 0; i < count; ++i) {
+      auto t = device().create_texture({.label = "many", .size = {side, side, 1}, .format = gpu::Format::R32Float,
+                                        .usage = gpu::TextureUsage::CopyDst | gpu::TextureUsage::CopySrc |
+                                                 gpu::TextureUsage::Sampled});
+      REQUIRE(t);
+      textures.push_back(std::move(*t));
+      std::vector<float> values(side * side, float(i) + 0.5f);
+      auto up = device().create_buffer_with_data({.label = "up", .size = side * side * 4, .usage = gpu::BufferUsage::CopySrc},
+                                                 bytes_of(values));
+      auto down = device().create_buffer(
+          {.label = "down", .size = side * side * 4, .usage = gpu::BufferUsage::CopyDst | gpu::BufferUsage::MapRead});
+      REQUIRE(up);
+      REQUIRE(down);
+      uploads.push_back(std::move(*up));
+      readbacks.push_back(std::move(*down));
+    }
+    auto enc = device().create_command_encoder("many-barriers");
+    REQUIRE(enc);
+    std::vector<gpu::TextureBarrier> to_dst, to_src;
+    for (const auto& t : textures) {
+      to_dst.push_back({&t, gpu::Access::Undefined, gpu::Access::CopyDst});
+      to_src.push_back({&t, gpu::Access::CopyDst, gpu::Access::CopySrc});
+    }
+    enc->barrier(to_dst, {});
+    for (std::uint32_t i = 0; i < count; ++i) enc->copy_buffer_to_texture(uploads[i], 0, textures[i]);
+    enc->barrier(to_src, {});
+    for (std::uint32_t i = 0; i < count; ++i) enc->copy_texture_to_buffer(textures[i], readbacks[i], 0);
+    std::vector<gpu::BufferBarrier> host;
+    for (const auto& b : readbacks) host.push_back({&b, gpu::Access::CopyDst, gpu::Access::HostRead});
+    enc->barrier({}, host);
+    auto cmd = enc->finish();
+    REQUIRE(cmd);
+    REQUIRE(device().queue().submit(std::move(*cmd)));
+    REQUIRE(device().queue().wait_idle());
+    for (std::uint32_t i = 0; i < count; ++i) {
+      auto view = readbacks[i].mapped();
+      REQUIRE(view);
+      float last = 0.0f;
+      std::memcpy(&last, view->data() + (side * side - 1) * 4, 4);
+      CHECK(last == float(i) + 0.5f);
+      CHECK(textures[i].state() == gpu::Access::CopySrc);
+    }
+    expect_no_validation_messages();
+  }
+}
+
 TEST_CASE("synchronization validation catches a missing barrier (so the suites can trust silence)") {
   auto a = device().create_buffer({.label = "hazard-a", .size = 256, .usage = gpu::BufferUsage::CopyDst | gpu::BufferUsage::CopySrc});
   auto b = device().create_buffer({.label = "hazard-b", .size = 256, .usage = gpu::BufferUsage::CopyDst});
