@@ -11,7 +11,6 @@
 module;
 #include <algorithm>
 #include <cstdint>
-#include <numeric>
 #include <span>
 #include <string>
 #include <vector>
@@ -208,7 +207,7 @@ gpu::MemoryRequirements estimate_requirements(const ResourceInfo& r) {
 
 namespace {
 
-// Field by field in place (see new_version in graph.cppm: a barrier built on the stack and
+// Field by field in place (see next_version in graph.cppm: a barrier built on the stack and
 // copied whole stalls store forwarding).
 [[gnu::always_inline]] inline void add_barrier(std::vector<PlannedBarrier>& barriers, std::uint32_t resource,
                                                gpu::Access before, gpu::Access after,

@@ -926,32 +926,25 @@ inline bool same_declared_size(const TextureSize& a, const TextureSize& b) {
   return a.absolute.width == b.absolute.width && a.absolute.height == b.absolute.height;
 }
 
-[[gnu::always_inline]] inline std::uint32_t new_version(GraphData& g, std::uint32_t resource, std::uint32_t producer) {
-  ResourceNode& r = g.resources[resource];
-  const std::uint32_t version = r.latest_slot == invalid_index ? 0 : g.versions[r.latest_slot].version + 1;
-  const auto slot = std::uint32_t(g.versions.size());
-  // Field by field in place: a VersionNode built on the stack and copied is stored in small
-  // pieces and loaded whole, which the CPU cannot forward (a stall per version).
-  VersionNode& v = g.versions.emplace_back();
-  v.resource = resource;
-  v.version = version;
-  v.producer = producer;
-  v.previous = r.latest_slot;
-  r.latest_slot = slot;
-  return slot;
-}
-
 // The next version of `resource` after its latest, `after` (the slot of version `version`).
 [[gnu::always_inline]] inline std::uint32_t next_version(GraphData& g, std::uint32_t resource, std::uint32_t after,
                                                          std::uint32_t version, std::uint32_t producer) {
   const auto slot = std::uint32_t(g.versions.size());
-  VersionNode& v = g.versions.emplace_back();  // in place: see new_version
+  // Field by field in place: a VersionNode built on the stack and copied is stored in small
+  // pieces and loaded whole, which the CPU cannot forward (a stall per version).
+  VersionNode& v = g.versions.emplace_back();
   v.resource = resource;
   v.version = version + 1;
   v.producer = producer;
   v.previous = after;
   g.resources[resource].latest_slot = slot;
   return slot;
+}
+
+// The next version after the latest one (every resource has its version 0 from creation).
+inline std::uint32_t new_version(GraphData& g, std::uint32_t resource, std::uint32_t producer) {
+  const std::uint32_t latest = g.resources[resource].latest_slot;
+  return next_version(g, resource, latest, g.versions[latest].version, producer);
 }
 
 [[gnu::always_inline]] inline std::uint32_t add_resource(GraphData& g, std::string_view name, ResourceType type, std::uint32_t creator) {
