@@ -824,6 +824,7 @@ struct CompileScratch {
   std::vector<std::uint32_t> alias_group_of, alias_group_parent, alias_group_number;
   std::vector<gpu::Access> current;
   std::vector<std::uint8_t> released;
+  std::vector<std::uint32_t> successor;  // the memory planner's (frame_plan.cpp)
   HeapBuilders heaps;
 };
 
@@ -947,12 +948,20 @@ inline std::uint32_t new_version(GraphData& g, std::uint32_t resource, std::uint
   return next_version(g, resource, latest, g.versions[latest].version, producer);
 }
 
-[[gnu::always_inline]] inline std::uint32_t add_resource(GraphData& g, std::string_view name, ResourceType type, std::uint32_t creator) {
+// `texture_desc`, when given, is set before anything else is stored, so that the compiler
+// merges it with the node's initialization.
+[[gnu::always_inline]] inline std::uint32_t add_resource(GraphData& g, std::string_view name, ResourceType type,
+                                                         std::uint32_t creator,
+                                                         const TextureDesc* texture_desc = nullptr) {
   const auto index = std::uint32_t(g.resources.size());
+  // The name first: its bytes are stored through a char pointer, which may alias anything,
+  // so the node's stores after it could not be merged with its initialization.
+  const std::string_view stored_name = g.arena.copy(name);
   ResourceNode& r = g.resources.emplace_back();
-  r.name = g.arena.copy(name);
+  r.name = stored_name;
   r.type = type;
   r.creator = creator;
+  if (texture_desc != nullptr) set_texture_desc(r.texture_desc, *texture_desc);
   // Version 0, which nobody produced.
   r.latest_slot = std::uint32_t(g.versions.size());
   g.versions.emplace_back().resource = index;
@@ -1021,8 +1030,9 @@ inline PassBuilder begin_pass(GraphData& g, std::string_view name, const ErasedE
   const auto index = std::uint32_t(g.passes.size());
   if (g.current_pass != invalid_index) [[unlikely]]
     report_nested_pass(g, name);
+  const std::string_view stored_name = g.arena.copy(name);  // first: see add_resource
   PassNode& pass = g.passes.emplace_back();
-  pass.name = g.arena.copy(name);
+  pass.name = stored_name;
   pass.first_access = std::uint32_t(g.accesses.size());
   pass.execute = execute;
   if (execute.destroy) g.has_destructors = true;
@@ -1042,8 +1052,7 @@ inline std::uint32_t builder_pass(const PassBuilder& builder) { return builder.p
 namespace weft {
 
 [[gnu::always_inline]] inline TextureHandle PassBuilder::create_texture(std::string_view name, const TextureDesc& desc) {
-  const std::uint32_t index = detail::add_resource(*graph_, name, ResourceType::Texture, pass_);
-  detail::set_texture_desc(graph_->resources[index].texture_desc, desc);
+  const std::uint32_t index = detail::add_resource(*graph_, name, ResourceType::Texture, pass_, &desc);
   const gpu::Extent3D& e = desc.size.absolute;
   const bool valid = desc.format != gpu::Format::Undefined && desc.mip_level_count != 0 &&
                      (desc.size.is_relative ? desc.size.relative.width > 0.0f && desc.size.relative.height > 0.0f

@@ -3,6 +3,8 @@
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <cstdint>
+#include <map>
+#include <set>
 #include <random>
 #include <memory>
 #include <optional>
@@ -1098,6 +1100,32 @@ TEST_CASE("memory planner: random graphs of mixed sizes place exactly as plain b
         const bool overlap = a.offset < b.offset + b.bytes && b.offset < a.offset + a.bytes;
         CHECK_FALSE_MESSAGE((live_together && overlap), a.name, " and ", b.name);
       }
+    }
+    // Takeovers: painting each resource's bytes in placement order (first use, then index),
+    // what a resource takes over is exactly who painted its bytes last -- whether the planner
+    // found them through its segments or through a run one resource left whole.
+    std::vector<std::uint32_t> placed;
+    for (std::uint32_t r = 0; r < resources.size(); ++r)
+      if (resources[r].heap != invalid_index) placed.push_back(r);
+    std::stable_sort(placed.begin(), placed.end(), [&](std::uint32_t a, std::uint32_t b) {
+      return resources[a].first_use < resources[b].first_use;
+    });
+    std::map<std::uint32_t, std::vector<std::uint32_t>> painted;  // heap -> owner per 256-byte unit
+    std::map<std::uint32_t, std::set<std::uint32_t>> taken;       // resource -> previous occupants
+    for (const std::uint32_t pos_pass : compiled->order())
+      for (const PlannedBarrier& b : compiled->barriers_before(pos_pass))
+        if (b.previous_occupant != invalid_index) taken[b.resource].insert(b.previous_occupant);
+    for (const std::uint32_t r : placed) {
+      const ResourceInfo& info = resources[r];
+      std::vector<std::uint32_t>& units = painted[info.heap];
+      const std::uint64_t begin = info.offset / 256, end = (info.offset + info.bytes + 255) / 256;
+      if (units.size() < end) units.resize(end, invalid_index);
+      std::set<std::uint32_t> expected_occupants;
+      for (std::uint64_t u = begin; u < end; ++u) {
+        if (units[u] != invalid_index) expected_occupants.insert(units[u]);
+        units[u] = r;
+      }
+      CHECK_MESSAGE(taken[r] == expected_occupants, "trial ", trial, ": takeovers of ", info.name);
     }
   }
 }
