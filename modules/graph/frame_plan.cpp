@@ -51,17 +51,11 @@ gpu::TextureDescriptor texture_descriptor(const ResourceInfo& r) {
 
 }  // namespace
 
-// A free run. `occupant`: the one resource whose whole memory the run is (released and not
-// joined with anything), whom a resource taking the whole run over succeeds without a search
-// through the segments; invalid_index when the run is anything else.
 struct Range {
   std::uint64_t begin, end;
-  std::uint32_t occupant = invalid_index;
 };
 
-// Who used each byte range of a heap last: consecutive segments covering [0, size). A
-// segment's occupant may have been succeeded since, by resources that took its memory over
-// whole (see Range): `successor` leads from it to the current one.
+// Who used each byte range of a heap last: consecutive segments covering [0, size).
 struct Segment {
   std::uint64_t begin, end;
   std::uint32_t occupant;  // invalid_index: never used
@@ -73,19 +67,6 @@ struct HeapBuilder {
   std::uint64_t size = 0;
   std::vector<Range> free;  // dead memory inside [0, size): sorted, coalesced
   std::vector<Segment> segments;
-  std::uint32_t* successor = nullptr;  // per resource: who took its whole memory over, or invalid_index
-
-  // The current occupant of memory a segment says `occupant` used (path halving keeps the
-  // chains of a long chain of passes short).
-  [[nodiscard]] std::uint32_t current(std::uint32_t occupant) const {
-    if (occupant == invalid_index) return occupant;
-    while (successor[occupant] != invalid_index) {
-      const std::uint32_t next = successor[occupant];
-      if (successor[next] != invalid_index) successor[occupant] = successor[next];
-      occupant = next;
-    }
-    return occupant;
-  }
 
   // Best fit among the free runs, else at the end of the heap (growing it, starting inside
   // the trailing free run when there is one). The common cases of a frame -- nothing free (a
@@ -93,13 +74,10 @@ struct HeapBuilder {
   // resource two passes back) -- touch only the ends of the arrays; every case places where
   // the general best-fit search would.
   // Returns the offset; `appended` is set when the resource got a fresh slot at the end of
-  // the heap with no padding, whose segment place() has already recorded, and `succeeded`
-  // when it took over a whole free run that one resource left (recorded as its successor);
-  // otherwise occupy() finds what it takes over.
+  // the heap with no padding, whose segment place() has already recorded (occupy() not needed).
   [[gnu::always_inline]] inline std::uint64_t place(std::uint64_t bytes, const Alignment& alignment, std::uint32_t resource,
-                                                    bool& appended, std::uint32_t& succeeded) {
+                                                    bool& appended) {
     appended = false;
-    succeeded = invalid_index;
     if (free.empty() && bytes > 0) {
       const std::uint64_t at = alignment.up(size);
       if (at == size) {
@@ -110,12 +88,11 @@ struct HeapBuilder {
       }
     }
     // One free run that fits exactly (a chain taking over what a resource two passes back
-    // left): the best fit, taken whole.
+    // left): the best fit, taken whole, without setting up the search.
     if (free.size() == 1 && free[0].end - free[0].begin == bytes && alignment.up(free[0].begin) == free[0].begin) {
-      const Range whole = free[0];
+      const std::uint64_t at = free[0].begin;
       free.pop_back();
-      take_whole(whole, resource, succeeded);
-      return whole.begin;
+      return at;
     }
     constexpr std::uint64_t none = ~0ull;
     std::uint64_t best = none, best_size = none;
@@ -133,12 +110,8 @@ struct HeapBuilder {
       const bool trailing = !free.empty() && free.back().end == size;
       best = alignment.up(trailing ? free.back().begin : size);
       const std::uint64_t grown = best + bytes;
-      if (trailing) {
-        free.back().end = grown;
-        free.back().occupant = invalid_index;
-      } else {
-        free.push_back(Range{size, grown});
-      }
+      if (trailing) free.back().end = grown;
+      else free.push_back(Range{size, grown});
       segments.push_back(Segment{size, grown, invalid_index});
       size = grown;
       best_run = free.size() - 1;
@@ -154,33 +127,20 @@ struct HeapBuilder {
       *run = left;
     } else if (right.end > right.begin) {
       *run = right;
+    } else if (best_run + 1 == free.size()) {
+      free.pop_back();
     } else {
-      take_whole(whole, resource, succeeded);
-      if (best_run + 1 == free.size()) free.pop_back();
-      else free.erase(run);
+      free.erase(run);
     }
     return best;
   }
 
-  // `resource` takes all of the run `whole`: when one resource left it, that one is
-  // succeeded (its segments now mean `resource`).
-  [[gnu::always_inline]] inline void take_whole(const Range& whole, std::uint32_t resource, std::uint32_t& succeeded) {
-    if (whole.occupant == invalid_index) return;
-    successor[whole.occupant] = resource;
-    succeeded = whole.occupant;
-  }
-
-  // Frees the memory `resource` used, [offset, offset + bytes).
-  [[gnu::always_inline]] inline void release(std::uint64_t offset, std::uint64_t bytes, std::uint32_t resource) {
-    Range r{offset, offset + bytes, resource};
+  [[gnu::always_inline]] inline void release(std::uint64_t offset, std::uint64_t bytes) {
+    Range r{offset, offset + bytes};
     // Past every free run (or none): join the last one or append, no search.
     if (free.empty() || free.back().end <= r.begin) {
-      if (!free.empty() && free.back().end == r.begin) {
-        free.back().end = r.end;
-        free.back().occupant = invalid_index;
-      } else {
-        free.push_back(r);
-      }
+      if (!free.empty() && free.back().end == r.begin) free.back().end = r.end;
+      else free.push_back(r);
       return;
     }
     auto at = std::upper_bound(free.begin(), free.end(), offset, [](std::uint64_t x, const Range& f) { return x < f.begin; });
@@ -188,14 +148,11 @@ struct HeapBuilder {
     const bool join_next = at != free.end() && at->begin == r.end;
     if (join_previous && join_next) {
       (at - 1)->end = at->end;
-      (at - 1)->occupant = invalid_index;
       free.erase(at);
     } else if (join_previous) {
       (at - 1)->end = r.end;
-      (at - 1)->occupant = invalid_index;
     } else if (join_next) {
       at->begin = r.begin;
-      at->occupant = invalid_index;
     } else {
       free.insert(at, r);
     }
@@ -208,17 +165,15 @@ struct HeapBuilder {
     const std::uint64_t end = offset + bytes;
     auto first = std::partition_point(segments.begin(), segments.end(), [&](const Segment& s) { return s.end <= offset; });
     if (bytes > 0 && first != segments.end() && first->begin == offset && first->end == end) {  // exactly one earlier occupant
-      if (first->occupant != invalid_index) previous.push_back(current(first->occupant));
+      if (first->occupant != invalid_index) previous.push_back(first->occupant);
       first->occupant = resource;
       return;
     }
     auto last = first;
-    for (; last != segments.end() && last->begin < end; ++last) {
-      last->occupant = current(last->occupant);
+    for (; last != segments.end() && last->begin < end; ++last)
       if (last->occupant != invalid_index &&
           std::find(previous.begin() + std::ptrdiff_t(previous_begin), previous.end(), last->occupant) == previous.end())
         previous.push_back(last->occupant);
-    }
     Segment replacement[3];
     std::size_t n = 0;
     if (first != last && first->begin < offset) replacement[n++] = Segment{first->begin, offset, first->occupant};
@@ -417,7 +372,6 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
     }
   }
   scratch.released.assign(R, 0);  // a texture moves to its release state only once
-  scratch.successor.assign(R, invalid_index);
   state.takeover_first.assign(R, 0);
   state.takeover_count.assign(R, 0);
   state.takeovers.clear();
@@ -482,18 +436,15 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
       fresh.size = 0;
       fresh.free.clear();
       fresh.segments.clear();
-      fresh.successor = scratch.successor.data();
       ++heap_count;
       only_heap[type] = ++heaps_of_type[type] == 1 ? heap : none;
     }
     HeapBuilder& h = heaps[heap];
     h.type_bits &= req->type_bits;
     bool appended = false;
-    std::uint32_t succeeded = invalid_index;
-    const std::uint64_t offset = h.place(req->size, alignment, r, appended, succeeded);
+    const std::uint64_t offset = h.place(req->size, alignment, r, appended);
     const auto first_takeover = std::uint32_t(takeovers.size());
-    if (succeeded != invalid_index) takeovers.push_back(succeeded);
-    else if (!appended) h.occupy(offset, req->size, r, takeovers, first_takeover);
+    if (!appended) h.occupy(offset, req->size, r, takeovers, first_takeover);
     info.heap = std::uint32_t(heap);
     info.offset = offset;
     const auto count = std::uint32_t(takeovers.size()) - first_takeover;
@@ -546,7 +497,7 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
     }
     if (aliasing)
       for (const std::uint32_t r : ending)
-        if (info_of[r].heap != invalid_index) heaps[info_of[r].heap].release(info_of[r].offset, info_of[r].bytes, r);
+        if (info_of[r].heap != invalid_index) heaps[info_of[r].heap].release(info_of[r].offset, info_of[r].bytes);
   }
   state.barrier_begin[positions] = std::uint32_t(state.barriers.size());
 

@@ -824,7 +824,6 @@ struct CompileScratch {
   std::vector<std::uint32_t> alias_group_of, alias_group_parent, alias_group_number;
   std::vector<gpu::Access> current;
   std::vector<std::uint8_t> released;
-  std::vector<std::uint32_t> successor;  // the memory planner's (frame_plan.cpp)
   HeapBuilders heaps;
 };
 

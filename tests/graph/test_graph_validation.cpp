@@ -1102,8 +1102,8 @@ TEST_CASE("memory planner: random graphs of mixed sizes place exactly as plain b
       }
     }
     // Takeovers: painting each resource's bytes in placement order (first use, then index),
-    // what a resource takes over is exactly who painted its bytes last -- whether the planner
-    // found them through its segments or through a run one resource left whole.
+    // what a resource takes over is exactly who painted its bytes last, however the planner
+    // placed it (appended, an exact single run, best fit, a grown trailing run).
     std::vector<std::uint32_t> placed;
     for (std::uint32_t r = 0; r < resources.size(); ++r)
       if (resources[r].heap != invalid_index) placed.push_back(r);
