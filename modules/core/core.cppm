@@ -1,12 +1,17 @@
 // weft.core — what every weft module shares: errors as values (Result/Error), logging,
-// GLM math aliases and content hashing. Nothing here knows about GPUs, graphs or scenes.
+// GLM math aliases, content hashing and bounds-checked binary reading and writing. Nothing
+// here knows about GPUs, graphs or scenes.
 module;
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <expected>
 #include <span>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <utility>
+#include <vector>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <glm/glm.hpp>
@@ -110,6 +115,58 @@ inline std::uint64_t hash_bytes(std::span<const std::byte> data) {
   return Hasher{}.bytes(data.data(), data.size()).digest();
 }
 inline std::string hex64(std::uint64_t v) { return fmt::format("{:016x}", v); }
+
+// ---- binary files --------------------------------------------------------------------
+// weft's binary files (.wbtf, .wssdf) lay little-endian values end to end. Their encoders
+// check that the host is little-endian, so values are copied as they lie in memory.
+
+// Appends values' bytes; a format adds its own encodings (fp16, quantized) on top.
+struct BinaryWriter {
+  template <class T>
+  void put(const T& value) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const auto* p = reinterpret_cast<const std::byte*>(&value);
+    bytes.insert(bytes.end(), p, p + sizeof(T));
+  }
+  template <class T>
+  void put_all(std::span<const T> values) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const auto* p = reinterpret_cast<const std::byte*>(values.data());
+    bytes.insert(bytes.end(), p, p + values.size_bytes());
+  }
+  std::vector<std::byte> bytes;
+};
+
+// Reads values in order from bytes a decoder does not trust: every read checks its size
+// first, and one that runs past the end is a Parse error naming the source, the section
+// (when not empty), what was being read, the bytes it needs, the offset and what remains:
+//   "cloth.wbtf: section 'MLP': truncated: layer 2's input count needs 4 bytes at offset 96, but only 1 remain"
+// `source` and `section` are viewed, not copied: they must outlive the reader.
+class BinaryReader {
+ public:
+  BinaryReader(std::span<const std::byte> data, std::string_view source, std::string_view section = {})
+      : data_(data), source_(source), section_(section) {}
+
+  // A value copied out (the data need not be aligned).
+  template <class T>
+  Result<T> get(std::string_view what) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    if (remaining() < sizeof(T)) return truncated(what, sizeof(T));
+    T value;
+    std::memcpy(&value, data_.data() + at_, sizeof(T));
+    at_ += sizeof(T);
+    return value;
+  }
+  // The next `count` bytes, as a view into the data.
+  Result<std::span<const std::byte>> take(std::size_t count, std::string_view what);
+  [[nodiscard]] std::size_t remaining() const { return data_.size() - at_; }
+
+ private:
+  [[nodiscard]] std::unexpected<Error> truncated(std::string_view what, std::size_t needed) const;
+  std::span<const std::byte> data_;
+  std::string_view source_, section_;
+  std::size_t at_ = 0;
+};
 
 // ---- logging -------------------------------------------------------------------------
 // Thin wrappers over spdlog so modules need not include it; the level comes from

@@ -34,50 +34,13 @@ constexpr std::uint32_t kClusterTag = 0x00534c43u;  // "CLS\0"
 
 std::uint64_t checksum(std::span<const std::byte> bytes) { return hash_bytes(bytes); }
 
-class Writer {
+// The .wssdf basis encodings: fp32 as it is, fp16 by weft.cluster's conversion.
+class Writer : public BinaryWriter {
  public:
-  template <class T>
-  void put(const T& value) {
-    const auto* p = reinterpret_cast<const std::byte*>(&value);
-    bytes.insert(bytes.end(), p, p + sizeof(T));
-  }
   void put_halves(std::span<const float> values) {
     for (float v : values) put(cluster::float_to_half(v));
   }
-  void put_floats(std::span<const float> values) {
-    const auto* p = reinterpret_cast<const std::byte*>(values.data());
-    bytes.insert(bytes.end(), p, p + values.size_bytes());
-  }
-  std::vector<std::byte> bytes;
-};
-
-class Reader {
- public:
-  Reader(std::span<const std::byte> data, std::string_view source) : data_(data), source_(source) {}
-  template <class T>
-  Result<T> get(std::string_view what) {
-    if (data_.size() - at_ < sizeof(T)) return truncated(what, sizeof(T));
-    T value;
-    std::memcpy(&value, data_.data() + at_, sizeof(T));
-    at_ += sizeof(T);
-    return value;
-  }
-  Result<std::span<const std::byte>> take(std::size_t count, std::string_view what) {
-    if (data_.size() - at_ < count) return truncated(what, count);
-    auto span = data_.subspan(at_, count);
-    at_ += count;
-    return span;
-  }
-  [[nodiscard]] std::size_t remaining() const { return data_.size() - at_; }
-
- private:
-  std::unexpected<Error> truncated(std::string_view what, std::size_t needed) const {
-    return fail(ErrorKind::Parse, "{}: truncated: {} needs {} bytes at offset {}, but only {} remain", source_, what,
-                needed, at_, data_.size() - at_);
-  }
-  std::span<const std::byte> data_;
-  std::string_view source_;
-  std::size_t at_ = 0;
+  void put_floats(std::span<const float> values) { put_all(values); }
 };
 
 void put_section(Writer& out, std::uint32_t tag, const std::vector<std::byte>& payload) {
@@ -183,7 +146,7 @@ std::vector<std::byte> encode(const Asset& asset) {
 }
 
 Result<Asset> decode(std::span<const std::byte> bytes, std::string_view source) {
-  Reader in(bytes, source);
+  BinaryReader in(bytes, source);
   auto header_bytes = in.take(std::min<std::size_t>(bytes.size(), kHeaderBytes), "the header");
   const std::size_t magic_bytes = std::min(bytes.size(), kMagic.size());
   if (std::memcmp(bytes.data(), kMagic.data(), magic_bytes) == 0 && bytes.size() < kHeaderBytes)
@@ -201,7 +164,7 @@ Result<Asset> decode(std::span<const std::byte> bytes, std::string_view source) 
   if (bytes.size() < kHeaderBytes)
     return fail(ErrorKind::Parse, "{}: truncated: the header needs {} bytes, the file has {}", source, kHeaderBytes,
                 bytes.size());
-  Reader header(*header_bytes, source);
+  BinaryReader header(*header_bytes, source);
   std::uint32_t fields[13];
   for (auto& f : fields) f = 0;
   (void)header.take(12, "magic and version");
@@ -262,7 +225,7 @@ Result<Asset> decode(std::span<const std::byte> bytes, std::string_view source) 
   if (payloads[0].size() != std::uint64_t(vertex_count) * 8)
     return fail(ErrorKind::Parse, "{}: section 'VTX' has {} bytes, {} vertices need {}", source, payloads[0].size(),
                 vertex_count, std::uint64_t(vertex_count) * 8);
-  Reader vertices(payloads[0], source);
+  BinaryReader vertices(payloads[0], source);
   cpca.cluster_of.resize(vertex_count);
   cpca.slot_of.resize(vertex_count);
   for (std::size_t v = 0; v < vertex_count; ++v) {
@@ -276,7 +239,7 @@ Result<Asset> decode(std::span<const std::byte> bytes, std::string_view source) 
   if (std::uint64_t(cluster_count) * 8 > payloads[1].size())
     return fail(ErrorKind::Parse, "{}: {} clusters cannot fit in section 'CLS' of {} bytes", source, cluster_count,
                 payloads[1].size());
-  Reader clusters(payloads[1], source);
+  BinaryReader clusters(payloads[1], source);
   cpca.clusters.resize(cluster_count);
   std::size_t rows_total = 0;
   for (std::size_t c = 0; c < cluster_count; ++c) {

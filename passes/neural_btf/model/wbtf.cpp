@@ -49,13 +49,9 @@ IdStorage resolve_ids(IdStorage requested, std::size_t count) {
 // fp16 round trip (glm rounds to nearest); finite floats beyond ±65504 do not fit.
 bool fits_half(float v) { return std::isfinite(glm::unpackHalf1x16(glm::packHalf1x16(v))); }
 
-class Writer {
+// The .wbtf float encodings: fp32 as it is, fp16 rounded to nearest by glm.
+class Writer : public BinaryWriter {
  public:
-  template <class T>
-  void put(const T& value) {
-    const auto* p = reinterpret_cast<const std::byte*>(&value);
-    bytes.insert(bytes.end(), p, p + sizeof(T));
-  }
   void put_floats(std::span<const float> values, FloatStorage storage) {
     for (float v : values) {
       if (storage == FloatStorage::Fp16)
@@ -64,38 +60,6 @@ class Writer {
         put(v);
     }
   }
-  std::vector<std::byte> bytes;
-};
-
-class Reader {
- public:
-  Reader(std::span<const std::byte> data, std::string_view source, std::string_view section)
-      : data_(data), source_(source), section_(section) {}
-  template <class T>
-  Result<T> get(std::string_view what) {
-    if (data_.size() - at_ < sizeof(T)) return truncated(what, sizeof(T));
-    T value;
-    std::memcpy(&value, data_.data() + at_, sizeof(T));
-    at_ += sizeof(T);
-    return value;
-  }
-  Result<std::span<const std::byte>> take(std::size_t count, std::string_view what) {
-    if (data_.size() - at_ < count) return truncated(what, count);
-    auto span = data_.subspan(at_, count);
-    at_ += count;
-    return span;
-  }
-  [[nodiscard]] std::size_t remaining() const { return data_.size() - at_; }
-
- private:
-  std::unexpected<Error> truncated(std::string_view what, std::size_t needed) const {
-    return fail(ErrorKind::Parse, "{}: {}truncated: {} needs {} bytes at offset {}, but only {} remain", source_,
-                section_.empty() ? std::string() : weft::format("section '{}': ", section_), what, needed, at_,
-                data_.size() - at_);
-  }
-  std::span<const std::byte> data_;
-  std::string_view source_, section_;
-  std::size_t at_ = 0;
 };
 
 std::vector<float> floats_of(std::span<const std::byte> bytes, FloatStorage storage) {
@@ -307,7 +271,7 @@ Result<NeuralBtf> decode_wbtf(std::span<const std::byte> bytes, std::string_view
   if (bytes.size() < kHeaderBytes)
     return fail(ErrorKind::Parse, "{}: truncated: the header needs {} bytes, the file has {}", source, kHeaderBytes,
                 bytes.size());
-  Reader header(bytes.first(kHeaderBytes), source, "header");
+  BinaryReader header(bytes.first(kHeaderBytes), source, "header");
   (void)header.take(12, "magic and version");
   std::uint32_t f[13];
   for (auto& v : f) v = *header.get<std::uint32_t>("a header field");
@@ -342,7 +306,7 @@ Result<NeuralBtf> decode_wbtf(std::span<const std::byte> bytes, std::string_view
   const auto ids = IdStorage(id_format);
   const auto scales = ScaleStorage(scale_format);
 
-  Reader in(bytes, source, "");
+  BinaryReader in(bytes, source);
   (void)in.take(kHeaderBytes, "the header");
   std::array<std::span<const std::byte>, kSections> payloads;
   for (std::uint32_t s = 0; s < kSections; ++s) {
@@ -378,7 +342,7 @@ Result<NeuralBtf> decode_wbtf(std::span<const std::byte> bytes, std::string_view
   model.output_scale = output_scale;
 
   // MLP: shapes chain from latent + 4 to 3; each layer's numbers are checked to fit first.
-  Reader mlp(payloads[0], source, "MLP");
+  BinaryReader mlp(payloads[0], source, "MLP");
   std::uint32_t expected_inputs = latent_size + 4;
   for (std::uint32_t i = 0; i < layer_count; ++i) {
     auto inputs = mlp.get<std::uint32_t>(weft::format("layer {}'s input count", i));
