@@ -1,6 +1,7 @@
 // weft.frame — what every pass of a frame shares without knowing the scene file: meshes on
 // the GPU in weft's one vertex layout, the per-frame uniforms (camera, key light, shadow
-// matrix, environment), and draw items tagged with the feature that shades them.
+// matrix, environment), draw items tagged with the feature that shades them, and the
+// pipeline and shadow sampler that the features drawing lit meshes all create alike.
 module;
 #include <array>
 #include <cstdint>
@@ -28,6 +29,19 @@ static_assert(sizeof(Vertex) == 64);
 
 // The vertex buffer layout of frame::Vertex, locations 0..4.
 gpu::VertexBufferLayout vertex_layout();
+
+// The pipeline the passes that shade meshes into the scene's colour and depth share
+// (forward, skin, fur, SSDF, neural BTF): one vertex buffer (frame::Vertex unless told
+// otherwise), triangles, both faces drawn, one colour target, depth tested (less) and written.
+Result<gpu::RenderPipeline> create_lit_mesh_pipeline(gpu::Device& device, std::string label,
+                                                     const gpu::PipelineLayout& layout, const gpu::ShaderModule& vertex,
+                                                     const gpu::ShaderModule& fragment, gpu::Format color_format,
+                                                     gpu::Format depth_format,
+                                                     gpu::VertexBufferLayout vertices = vertex_layout());
+
+// The sampler a lit pass reads the shadow map through (sampler2DShadow): a less-or-equal
+// depth comparison, linearly filtered, level 0 only.
+Result<gpu::Sampler> create_shadow_compare_sampler(gpu::Device& device, std::string label);
 
 struct GpuMesh {
   std::string name;

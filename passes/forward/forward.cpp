@@ -56,17 +56,10 @@ Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
                                                .bind_group_layouts = {&*bind_layout, &*material_layout},
                                                .push_constant_size = sizeof(DrawConstants)});
   if (!layout) return std::unexpected(layout.error());
-  auto pipeline = device.create_render_pipeline({.label = "forward",
-                                                 .layout = &*layout,
-                                                 .vertex = &*vs,
-                                                 .fragment = &*fs,
-                                                 .vertex_buffers = {frame::vertex_layout()},
-                                                 .cull_mode = gpu::CullMode::None,
-                                                 .color_targets = {{scene_color_format}},
-                                                 .depth_stencil = gpu::DepthStencilState{.format = scene_depth_format}});
+  auto pipeline = frame::create_lit_mesh_pipeline(device, "forward", *layout, *vs, *fs, scene_color_format,
+                                                  scene_depth_format);
   if (!pipeline) return std::unexpected(pipeline.error());
-  auto shadow_sampler = device.create_sampler({.label = "shadow-compare", .mipmap_filter = gpu::FilterMode::Nearest,
-                                               .compare = gpu::CompareFunction::LessEqual, .max_lod = 0.0f});
+  auto shadow_sampler = frame::create_shadow_compare_sampler(device, "shadow-compare");
   if (!shadow_sampler) return std::unexpected(shadow_sampler.error());
   auto environment_sampler = device.create_sampler({.label = "environment", .address_mode = gpu::AddressMode::Repeat});
   if (!environment_sampler) return std::unexpected(environment_sampler.error());

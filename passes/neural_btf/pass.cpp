@@ -246,17 +246,9 @@ Result<NeuralBtfPass> NeuralBtfPass::create(gpu::Device& device) {
                                                .bind_group_layouts = {&*frame_layout, &*material_layout},
                                                .push_constant_size = sizeof(NeuralBtfConstants)});
   if (!layout) return std::unexpected(layout.error());
-  auto pipeline = device.create_render_pipeline({.label = "neural-btf",
-                                                 .layout = &*layout,
-                                                 .vertex = &*vs,
-                                                 .fragment = &*fs,
-                                                 .vertex_buffers = {frame::vertex_layout()},
-                                                 .cull_mode = gpu::CullMode::None,
-                                                 .color_targets = {{color_format}},
-                                                 .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
+  auto pipeline = frame::create_lit_mesh_pipeline(device, "neural-btf", *layout, *vs, *fs, color_format, depth_format);
   if (!pipeline) return std::unexpected(pipeline.error());
-  auto shadow_compare = device.create_sampler({.label = "neural-btf-shadow", .mipmap_filter = gpu::FilterMode::Nearest,
-                                               .compare = gpu::CompareFunction::LessEqual, .max_lod = 0.0f});
+  auto shadow_compare = frame::create_shadow_compare_sampler(device, "neural-btf-shadow");
   if (!shadow_compare) return std::unexpected(shadow_compare.error());
   NeuralBtfPass pass;
   pass.state_ = std::make_shared<State>(State{std::move(*frame_layout), std::move(*material_layout), std::move(*layout),

@@ -155,14 +155,8 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
   if (!layout) return std::unexpected(layout.error());
   auto pipeline = [&](std::string label, const gpu::ShaderModule& vs, const gpu::ShaderModule& fs,
                       gpu::VertexBufferLayout vertices) {
-    return device.create_render_pipeline({.label = std::move(label),
-                                          .layout = &*layout,
-                                          .vertex = &vs,
-                                          .fragment = &fs,
-                                          .vertex_buffers = {std::move(vertices)},
-                                          .cull_mode = gpu::CullMode::None,
-                                          .color_targets = {{color_format}},
-                                          .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
+    return frame::create_lit_mesh_pipeline(device, std::move(label), *layout, vs, fs, color_format, depth_format,
+                                           std::move(vertices));
   };
   auto shells = pipeline("shell_fur.shells", *shell_vs, *shell_fs, frame::vertex_layout());
   if (!shells) return std::unexpected(shells.error());
@@ -174,8 +168,7 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
                                        .address_mode = gpu::AddressMode::MirrorRepeat, .max_lod = 0.0f});
   auto repeat = device.create_sampler({.label = "fur.repeat", .mipmap_filter = gpu::FilterMode::Nearest,
                                        .address_mode = gpu::AddressMode::Repeat, .max_lod = 0.0f});
-  auto shadow = device.create_sampler({.label = "fur.shadow", .mipmap_filter = gpu::FilterMode::Nearest,
-                                       .compare = gpu::CompareFunction::LessEqual, .max_lod = 0.0f});
+  auto shadow = frame::create_shadow_compare_sampler(device, "fur.shadow");
   for (auto* s : {&mirror, &repeat, &shadow})
     if (!*s) return std::unexpected(s->error());
   ShellFurPass pass;

@@ -98,17 +98,9 @@ Result<SkinSSSPass> SkinSSSPass::create(gpu::Device& device) {
                                                .bind_group_layouts = {&*frame_layout, &*material_layout, &*reference_layout},
                                                .push_constant_size = sizeof(SkinConstants)});
   if (!layout) return std::unexpected(layout.error());
-  auto pipeline = device.create_render_pipeline({.label = "skin",
-                                                 .layout = &*layout,
-                                                 .vertex = &*vs,
-                                                 .fragment = &*fs,
-                                                 .vertex_buffers = {frame::vertex_layout()},
-                                                 .cull_mode = gpu::CullMode::None,
-                                                 .color_targets = {{color_format}},
-                                                 .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
+  auto pipeline = frame::create_lit_mesh_pipeline(device, "skin", *layout, *vs, *fs, color_format, depth_format);
   if (!pipeline) return std::unexpected(pipeline.error());
-  auto shadow_compare = device.create_sampler({.label = "skin-shadow-compare", .mipmap_filter = gpu::FilterMode::Nearest,
-                                               .compare = gpu::CompareFunction::LessEqual, .max_lod = 0.0f});
+  auto shadow_compare = frame::create_shadow_compare_sampler(device, "skin-shadow-compare");
   if (!shadow_compare) return std::unexpected(shadow_compare.error());
   auto shadow_depth = device.create_sampler({.label = "skin-shadow-depth", .mag_filter = gpu::FilterMode::Nearest,
                                              .min_filter = gpu::FilterMode::Nearest,

@@ -145,17 +145,9 @@ Result<SSDFLightingPass> SSDFLightingPass::create(gpu::Device& device) {
   auto layout = device.create_pipeline_layout(
       {.label = "ssdf_lighting", .bind_group_layouts = {&*bind_layout}, .push_constant_size = sizeof(SsdfPush)});
   if (!layout) return std::unexpected(layout.error());
-  auto pipeline = device.create_render_pipeline({.label = "ssdf_lighting",
-                                                 .layout = &*layout,
-                                                 .vertex = &*vs,
-                                                 .fragment = &*fs,
-                                                 .vertex_buffers = {frame::vertex_layout()},
-                                                 .cull_mode = gpu::CullMode::None,
-                                                 .color_targets = {{color_format}},
-                                                 .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
+  auto pipeline = frame::create_lit_mesh_pipeline(device, "ssdf_lighting", *layout, *vs, *fs, color_format, depth_format);
   if (!pipeline) return std::unexpected(pipeline.error());
-  auto shadow = device.create_sampler({.label = "ssdf.shadow", .mipmap_filter = gpu::FilterMode::Nearest,
-                                       .compare = gpu::CompareFunction::LessEqual, .max_lod = 0.0f});
+  auto shadow = frame::create_shadow_compare_sampler(device, "ssdf.shadow");
   if (!shadow) return std::unexpected(shadow.error());
   auto table = storage(device, "ssdf.irradiance_table", std::as_bytes(std::span(ssdf::irradiance_table().values)));
   if (!table) return std::unexpected(table.error());
