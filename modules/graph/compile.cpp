@@ -238,7 +238,7 @@ class Scheduler {
         info.buffer_size = node.buffer_desc.size;
         info.buffer_usage = node.buffer_desc.extra_usage | buffer_usage_of(node.uses);
         if (node.uses != 0 && node.imported && node.imported_buffer_usage != gpu::BufferUsage::None)
-          check_imported_buffer_usage(r, node, usage_errors);
+          check_import_usage<BufferUse>(r, node.uses, node.imported_buffer_usage, "buffer", node.name, usage_errors);
       }
     }
   }
@@ -285,36 +285,24 @@ class Scheduler {
                        {resource_name(r)}});
       }
     }
-    if (node.imported && node.imported_texture_usage != gpu::TextureUsage::None) {
-      for (unsigned bit = 0; bit < 8; ++bit) {
-        if (!(uses & (1u << bit))) continue;
-        const auto needed = usage_of(TextureUse(bit));
-        if ((std::uint32_t(needed) & ~std::uint32_t(node.imported_texture_usage)) == 0) continue;
-        const auto users = passes_using(r, std::uint16_t(1u << bit));
-        usage_errors.push_back(GraphError{
-            GraphErrorKind::MissingUsage,
-            weft::format("pass '{}': uses imported texture '{}' as {}, but it was created without {} usage (it has {})",
-                         users.front(), node.name, to_string(TextureUse(bit)),
-                         gpu::to_string(
-                             gpu::TextureUsage(std::uint32_t(needed) & ~std::uint32_t(node.imported_texture_usage))),
-                         gpu::to_string(node.imported_texture_usage)),
-            users,
-            {resource_name(r)}});
-      }
-    }
+    if (node.imported && node.imported_texture_usage != gpu::TextureUsage::None)
+      check_import_usage<TextureUse>(r, node.uses, node.imported_texture_usage, "texture", node.name, usage_errors);
   }
 
-  void check_imported_buffer_usage(std::uint32_t r, const ResourceNode& node, std::vector<GraphError>& usage_errors) {
+  // An import created with a known usage: each use it lacks is an error naming its passes.
+  template <class Use, class Usage>
+  void check_import_usage(std::uint32_t r, std::uint16_t uses, Usage has, std::string_view kind, std::string_view name,
+                          std::vector<GraphError>& usage_errors) {
     for (unsigned bit = 0; bit < 8; ++bit) {
-      if (!(node.uses & (1u << bit))) continue;
-      const auto needed = usage_of(BufferUse(bit));
-      if ((std::uint32_t(needed) & ~std::uint32_t(node.imported_buffer_usage)) == 0) continue;
+      if (!(uses & (1u << bit))) continue;
+      const std::uint32_t missing = std::uint32_t(usage_of(Use(bit))) & ~std::uint32_t(has);
+      if (missing == 0) continue;
       const auto users = passes_using(r, std::uint16_t(1u << bit));
       usage_errors.push_back(GraphError{
           GraphErrorKind::MissingUsage,
-          weft::format("pass '{}': uses imported buffer '{}' as {}, but it was created without {} usage (it has {})",
-                       users.front(), node.name, to_string(BufferUse(bit)), gpu::to_string(needed),
-                       gpu::to_string(node.imported_buffer_usage)),
+          weft::format("pass '{}': uses imported {} '{}' as {}, but it was created without {} usage (it has {})",
+                       users.front(), kind, name, to_string(Use(bit)), gpu::to_string(Usage(missing)),
+                       gpu::to_string(has)),
           users,
           {resource_name(r)}});
     }

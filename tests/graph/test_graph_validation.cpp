@@ -431,6 +431,26 @@ TEST_SUITE("graph errors") {
     CHECK(contains(e.message, "without storage usage"));
   }
 
+  TEST_CASE("imported buffer created without a usage a pass needs") {
+    RenderGraph graph;
+    auto params = graph.import_buffer(
+        "params", gpu::BufferDescriptor{.label = "params", .size = 256, .usage = gpu::BufferUsage::Uniform},
+        gpu::Access::Undefined);
+    graph.add_pass("fill", [&](PassBuilder& b) {
+      (void)b.write(params, BufferUse::StorageWrite);
+      b.side_effect();
+    });
+    auto compiled = graph.compile(options);
+    REQUIRE_FALSE(compiled);
+    const GraphError& e = only_error(compiled.error());
+    CHECK(e.kind == GraphErrorKind::MissingUsage);
+    CHECK(e.message ==
+          "pass 'fill': uses imported buffer 'params' as storage-write, but it was created without storage usage (it "
+          "has uniform)");
+    CHECK(e.passes == std::vector<std::string>{"fill"});
+    CHECK(e.resources == std::vector<std::string>{"params"});
+  }
+
   TEST_CASE("attachments of one render pass with different sizes") {
     RenderGraph graph;
     graph.add_pass("gbuffer", [&](PassBuilder& b) {
