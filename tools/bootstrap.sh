@@ -10,6 +10,8 @@ packages=(
   libglm-dev libopenmesh-dev libtinygltf-dev libspdlog-dev libfmt-dev doctest-dev
   libeigen3-dev libembree-dev libstb-dev nlohmann-json3-dev libcli11-dev libtinyexr-dev
   libtbb-dev git
+  # the viewer (window, UI, headless X for its tests) and the fuzzers
+  libglfw3-dev libimgui-dev xvfb xauth libfuzzer-19-dev
 )
 # Packages whose Debian 12 version is too old: take them from bookworm-backports.
 backported=(cmake mesa-vulkan-drivers libgl1-mesa-dri libglx-mesa0 libegl-mesa0 libgbm1 libglapi-mesa libdrm2 libdrm-amdgpu1)
