@@ -1,11 +1,17 @@
-# weft_module(<target> INTERFACE <.cppm...> SOURCES <.cpp...> LINK <targets...>)
-# One folder = one C++20 module = one library target.
+# weft_module(<target> INTERFACE <.cppm...> [PRIVATE_MODULES <.cppm...>] SOURCES <.cpp...> LINK <targets...>)
+# One folder = one C++20 module = one library target. INTERFACE: the primary interface unit
+# and its interface partitions (installed); PRIVATE_MODULES: implementation partitions that
+# only the module's own .cpp files import (not installed).
 function(weft_module target)
-  cmake_parse_arguments(ARG "" "" "INTERFACE;SOURCES;LINK;PRIVATE_LINK" ${ARGN})
+  cmake_parse_arguments(ARG "" "" "INTERFACE;PRIVATE_MODULES;SOURCES;LINK;PRIVATE_LINK" ${ARGN})
   add_library(${target} STATIC)
   add_library(weft::${target} ALIAS ${target})
   target_sources(${target}
     PUBLIC FILE_SET CXX_MODULES BASE_DIRS ${CMAKE_CURRENT_SOURCE_DIR} FILES ${ARG_INTERFACE})
+  if(ARG_PRIVATE_MODULES)
+    target_sources(${target}
+      PRIVATE FILE_SET private_modules TYPE CXX_MODULES BASE_DIRS ${CMAKE_CURRENT_SOURCE_DIR} FILES ${ARG_PRIVATE_MODULES})
+  endif()
   if(ARG_SOURCES)
     target_sources(${target} PRIVATE ${ARG_SOURCES})
   endif()

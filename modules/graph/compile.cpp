@@ -21,6 +21,7 @@ module;
 module weft.graph;
 import weft.core;
 import weft.gpu;
+import :compiled_state;
 
 namespace weft::detail {
 
