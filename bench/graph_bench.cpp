@@ -2,14 +2,13 @@
 // transient memory aliasing saves on a realistic frame, and (with a Vulkan device) the
 // per-frame CPU overhead of executing through the graph against recording by hand.
 //
-//   build/bin/weft-bench-graph [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap]
-//                              [--builds first,changed,unchanged]
+//   build/bin/weft-bench-graph [--runs N] [--sizes 10,100,...] [--shapes chain,dag,dag-long]
+//                              [--builds first,new,changed,unchanged] [--no-device] [--keep-heap]
 //
-// Prints markdown tables. Times are medians over --runs runs (default 15) of
-// std::chrono::steady_clock, plus thread-CPU time (steadier on a shared machine). Graph
-// sizes are timed three ways: built into a new RenderGraph; reset() and rebuilt with one
-// declaration different from the last frame (a full compile on warm arrays); reset() and
-// rebuilt identically (compile() reuses last frame's plan).
+// Prints markdown tables. Times are medians over --runs frames of std::chrono::steady_clock,
+// plus thread-CPU time (steadier on a shared machine) and minor page faults per frame. Each
+// shape and size is timed four ways (see Build): a new RenderGraph per frame, a new one per
+// frame on a GraphMemory, and one graph reset() and rebuilt, changed or unchanged.
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -18,6 +17,7 @@
 #include <ctime>
 #include <functional>
 #include <malloc.h>
+#include <sys/resource.h>
 #include <optional>
 #include <random>
 #include <span>
@@ -57,45 +57,88 @@ std::vector<std::string> names(const char* prefix, int n) {
 }
 
 struct Timing {
-  double setup_us = 0, compile_us = 0, total_us = 0, cpu_us = 0;
+  double setup_us = 0, compile_us = 0, total_us = 0, frame_us = 0, cpu_us = 0, faults = 0;
 };
 
-// First build: a new RenderGraph per run, so every array, the arena and the compiled state
-// are allocated. Steady state: one RenderGraph reset() and rebuilt per run, as a frame loop
-// does; it starts with an untimed run, so the timed runs reuse that run's memory.
-enum class Build { First, Changed, Unchanged };
+// Minor page faults of this thread so far: memory the kernel maps on first touch (what a
+// graph pays when the heap gave its last graph's arrays back).
+long minor_faults() {
+  rusage usage{};
+  getrusage(RUSAGE_THREAD, &usage);
+  return usage.ru_minflt;
+}
+
+// How a run gets its graph. First: a new RenderGraph, so every array, the arena and the
+// compiled state are allocated. New per frame: a new RenderGraph made with a GraphMemory the
+// benchmark keeps across runs (an application's frame loop). Reset + rebuild: one RenderGraph,
+// reset() and declared again. New per frame and reset + rebuild start with two untimed runs
+// (a graph alternates between two sets of arrays), so the timed runs reuse their memory; "changed" frames differ from the last one in their
+// very last declaration (a full compile), "unchanged" frames declare the same (plan reused).
+enum class Build { First, NewPerFrame, Changed, Unchanged };
 
 const char* to_string(Build build) {
   switch (build) {
     case Build::First: return "first build";
+    case Build::NewPerFrame: return "new graph per frame (GraphMemory), changed";
     case Build::Changed: return "reset + rebuild, changed";
     case Build::Unchanged: return "reset + rebuild, unchanged (plan reused)";
   }
   return "?";
 }
 
-// The graph a run builds into: a fresh one, or `reused` after reset().
-RenderGraph& graph_for_run(Build build, std::optional<RenderGraph>& fresh, RenderGraph& reused, const char* name) {
-  if (build != Build::First) {
-    reused.reset();
-    return reused;
+// Times `runs` frames of one shape: declare(graph, changed) adds the passes, where `changed`
+// asks for a frame that differs from the last in its last declaration. Setup = making or
+// resetting the graph and declaring; compile = compile(); frame = both plus destroying the
+// compiled graph (and the graph, when it is new per frame), which thread-CPU and the faults
+// also cover.
+template <class Declare>
+Timing time_frames(int runs, Build build, const char* name, Declare&& declare, std::size_t* culled = nullptr) {
+  std::vector<double> setup, compile, total, frame, cpu;
+  long faults = 0;
+  GraphMemory memory;
+  RenderGraph reused(name);
+  for (int run = build == Build::First ? 0 : -2; run < runs; ++run) {
+    const bool changed = (build == Build::Changed || build == Build::NewPerFrame) && (run & 1) != 0;
+    const long f0 = minor_faults();
+    const double c0 = thread_cpu_us();
+    const auto t0 = Clock::now();
+    Clock::time_point t1, t2;
+    {
+      std::optional<RenderGraph> fresh;
+      RenderGraph& graph = build == Build::First         ? fresh.emplace(name)
+                           : build == Build::NewPerFrame ? fresh.emplace(name, memory)
+                                                         : (reused.reset(), reused);
+      declare(graph, changed);
+      t1 = Clock::now();
+      auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
+      t2 = Clock::now();
+      if (!compiled) {
+        std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str());
+        std::exit(1);
+      }
+      if (culled) *culled = graph.pass_count() - compiled->order().size();
+    }
+    const auto t3 = Clock::now();
+    const double c1 = thread_cpu_us();
+    const long f1 = minor_faults();
+    if (run < 0) continue;
+    faults += f1 - f0;
+    cpu.push_back(c1 - c0);
+    setup.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    compile.push_back(std::chrono::duration<double, std::micro>(t2 - t1).count());
+    total.push_back(std::chrono::duration<double, std::micro>(t2 - t0).count());
+    frame.push_back(std::chrono::duration<double, std::micro>(t3 - t0).count());
   }
-  return fresh.emplace(name);
+  return {median(setup), median(compile), median(total), median(frame), median(cpu), double(faults) / runs};
 }
 
 // A chain: each pass samples the previous pass's texture and renders a new one. Not inlined,
 // so that `valgrind --tool=callgrind --toggle-collect='*time_chain*'` counts this shape alone.
 [[gnu::noinline]] Timing time_chain(int n, int runs, Build build, const std::vector<std::string>& pass_names,
-                  const std::vector<std::string>& tex_names) {
-  std::vector<double> setup, compile, total, cpu;
+                                    const std::vector<std::string>& tex_names) {
   const gpu::TextureDescriptor output_desc{.label = "output", .size = {1920, 1080, 1}, .format = gpu::Format::RGBA8Unorm,
                                            .usage = gpu::TextureUsage::ColorAttachment};
-  RenderGraph reused("chain");
-  for (int run = build != Build::First ? -1 : 0; run < runs; ++run) {
-    std::optional<RenderGraph> fresh;
-    const double c0 = thread_cpu_us();
-    const auto t0 = Clock::now();
-    RenderGraph& graph = graph_for_run(build, fresh, reused, "chain");
+  return time_frames(runs, build, "chain", [&](RenderGraph& graph, bool changed) {
     TextureHandle previous;
     for (int i = 0; i < n; ++i) {
       graph.add_pass(pass_names[std::size_t(i)], [&](PassBuilder& b) {
@@ -107,38 +150,26 @@ RenderGraph& graph_for_run(Build build, std::optional<RenderGraph>& fresh, Rende
     auto output = graph.import_texture("output", output_desc, gpu::Access::Undefined);
     // A changed frame reads the last texture another way than the last frame: the very last
     // access differs, so compile() finds it only after comparing everything else.
-    const bool changed = build == Build::Changed && (run & 1) != 0;
     graph.add_pass("present", [&](PassBuilder& b) {
       b.read(previous, changed ? TextureUse::StorageRead : TextureUse::Sampled);
       output = b.write(output, TextureUse::ColorAttachment);
     });
     graph.mark_output(output);
-    const auto t1 = Clock::now();
-    auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
-    const auto t2 = Clock::now();
-    const double c1 = thread_cpu_us();
-    if (!compiled) {
-      std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str());
-      std::exit(1);
-    }
-    if (run < 0) continue;
-    cpu.push_back(c1 - c0);
-    setup.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
-    compile.push_back(std::chrono::duration<double, std::micro>(t2 - t1).count());
-    total.push_back(std::chrono::duration<double, std::micro>(t2 - t0).count());
-  }
-  return {median(setup), median(compile), median(total), median(cpu)};
+  });
 }
 
 // A random DAG: each pass reads up to three earlier results (fixed seed, chosen before
 // timing), writes one new texture; a tenth of the passes are side effects, so some chains
-// reach nothing and are culled.
+// reach nothing and are culled. `recent`: reads are mostly of the last few passes, as in a
+// real frame (few transients alive at once); otherwise of any earlier pass, so that the
+// number of live transients and free memory runs grows with the graph (the planner's worst
+// case).
 struct DagShape {
   std::vector<std::vector<int>> reads;
   std::vector<bool> side_effect;
 };
 
-DagShape make_dag(int n, std::uint32_t seed) {
+DagShape make_dag(int n, std::uint32_t seed, bool recent = true) {
   std::mt19937 rng(seed);
   DagShape shape;
   shape.reads.resize(std::size_t(n));
@@ -146,8 +177,8 @@ DagShape make_dag(int n, std::uint32_t seed) {
   for (int i = 0; i < n; ++i) {
     const int k = i == 0 ? 0 : std::uniform_int_distribution<int>(1, 3)(rng);
     for (int j = 0; j < k; ++j) {
-      // Mostly recent passes, as in a real frame.
-      const int back = std::min(i, 1 + int(std::exponential_distribution<double>(0.2)(rng)));
+      const int back = recent ? std::min(i, 1 + int(std::exponential_distribution<double>(0.2)(rng)))
+                              : std::uniform_int_distribution<int>(1, i)(rng);
       const int source = i - back;
       if (std::find(shape.reads[std::size_t(i)].begin(), shape.reads[std::size_t(i)].end(), source) ==
           shape.reads[std::size_t(i)].end())
@@ -160,43 +191,26 @@ DagShape make_dag(int n, std::uint32_t seed) {
 }
 
 [[gnu::noinline]] Timing time_dag(const DagShape& shape, int runs, Build build, const std::vector<std::string>& pass_names,
-                const std::vector<std::string>& tex_names, std::size_t* culled = nullptr) {
+                                  const std::vector<std::string>& tex_names, std::size_t* culled = nullptr) {
   const int n = int(shape.reads.size());
-  std::vector<double> setup, compile, total, cpu;
   std::vector<TextureHandle> results(static_cast<std::size_t>(n));
-  RenderGraph reused("dag");
-  for (int run = build != Build::First ? -1 : 0; run < runs; ++run) {
-    std::optional<RenderGraph> fresh;
-    const double c0 = thread_cpu_us();
-    const auto t0 = Clock::now();
-    RenderGraph& graph = graph_for_run(build, fresh, reused, "dag");
-    const bool changed = build == Build::Changed && (run & 1) != 0;  // how the last pass reads
-    for (int i = 0; i < n; ++i) {
-      graph.add_pass(pass_names[std::size_t(i)], [&](PassBuilder& b) {
-        for (int source : shape.reads[std::size_t(i)])
-          b.read(results[std::size_t(source)], changed && i == n - 1 ? TextureUse::StorageRead : TextureUse::Sampled);
-        results[std::size_t(i)] = b.write(
-            b.create_texture(tex_names[std::size_t(i)], {.size = RelativeSize{(i % 3) ? 1.0f : 0.5f}, .format = gpu::Format::RGBA16Float}),
-            TextureUse::StorageWrite);
-        if (shape.side_effect[std::size_t(i)]) b.side_effect();
-      });
-    }
-    const auto t1 = Clock::now();
-    auto compiled = graph.compile({.output_extent = {1920, 1080, 1}});
-    const auto t2 = Clock::now();
-    const double c1 = thread_cpu_us();
-    if (!compiled) {
-      std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str());
-      std::exit(1);
-    }
-    if (run < 0) continue;
-    cpu.push_back(c1 - c0);
-    if (culled) *culled = std::size_t(n) - compiled->order().size();
-    setup.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
-    compile.push_back(std::chrono::duration<double, std::micro>(t2 - t1).count());
-    total.push_back(std::chrono::duration<double, std::micro>(t2 - t0).count());
-  }
-  return {median(setup), median(compile), median(total), median(cpu)};
+  return time_frames(
+      runs, build, "dag",
+      [&](RenderGraph& graph, bool changed) {
+        for (int i = 0; i < n; ++i) {
+          graph.add_pass(pass_names[std::size_t(i)], [&](PassBuilder& b) {
+            for (int source : shape.reads[std::size_t(i)])
+              b.read(results[std::size_t(source)],
+                     changed && i == n - 1 ? TextureUse::StorageRead : TextureUse::Sampled);
+            results[std::size_t(i)] =
+                b.write(b.create_texture(tex_names[std::size_t(i)], {.size = RelativeSize{(i % 3) ? 1.0f : 0.5f},
+                                                                     .format = gpu::Format::RGBA16Float}),
+                        TextureUse::StorageWrite);
+            if (shape.side_effect[std::size_t(i)]) b.side_effect();
+          });
+        }
+      },
+      culled);
 }
 
 // A deferred frame: depth prepass, shadow map, gbuffer, SSAO, lighting, TAA (with last
@@ -462,46 +476,87 @@ void overhead_table(gpu::Device& device, int runs) {
 
 }  // namespace
 
+constexpr const char* usage_text =
+    "usage: weft-bench-graph [--runs N] [--sizes 10,100,...] [--shapes chain,dag,dag-long]\n"
+    "                        [--builds first,new,changed,unchanged] [--no-device] [--keep-heap]\n"
+    "  --runs N     frames per row (default 15, at least 7; rows of 10,000+ passes run half)\n"
+    "  --sizes      pass counts (default 10,100,1000,5000,10000)\n"
+    "  --shapes     chain; dag (reads of recent passes); dag-long (reads of any earlier pass)\n"
+    "  --builds     first: a new RenderGraph per frame; new: a new RenderGraph per frame on a\n"
+    "               GraphMemory; changed / unchanged: reset() and rebuilt, full compile / plan reused\n"
+    "  --no-device  graph tables only (no Vulkan device: no execute overhead or frame loop)\n"
+    "  --keep-heap  tell glibc never to give freed memory back to the kernel\n";
+
+// The items of a comma-separated list, each mapped by `parse` (false: unknown).
+template <class T, class Parse>
+bool parse_list(const char* text, std::vector<T>& out, Parse&& parse) {
+  out.clear();
+  const std::string list = text;
+  for (std::size_t start = 0; start <= list.size();) {
+    const std::size_t end = std::min(list.find(',', start), list.size());
+    T value{};
+    if (!parse(list.substr(start, end - start), value)) return false;
+    out.push_back(value);
+    start = end + 1;
+  }
+  return !out.empty();
+}
+
+enum class Shape { Chain, Dag, DagLong };
+
 int main(int argc, char** argv) {
   int runs = 15;
   bool use_device = true;
-  std::vector<int> sizes{10, 100, 1000, 10000};
+  std::vector<int> sizes{10, 100, 1000, 5000, 10000};
   bool keep_heap = false;
-  std::vector<Build> builds{Build::First, Build::Changed, Build::Unchanged};
+  std::vector<Build> builds{Build::First, Build::NewPerFrame, Build::Changed, Build::Unchanged};
+  std::vector<Shape> shapes{Shape::Chain, Shape::Dag, Shape::DagLong};
   for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--runs") == 0 && i + 1 < argc) {
+    const std::string arg = argv[i];
+    const bool has_value = i + 1 < argc;
+    if (arg == "--help" || arg == "-h") {
+      std::printf("%s", usage_text);
+      return 0;
+    } else if (arg == "--runs" && has_value) {
       runs = std::max(7, std::atoi(argv[++i]));
-    } else if (std::strcmp(argv[i], "--sizes") == 0 && i + 1 < argc) {
-      sizes.clear();
-      for (const char* p = argv[++i]; *p;) {
-        sizes.push_back(std::max(1, std::atoi(p)));
-        while (*p && *p != ',') ++p;
-        if (*p == ',') ++p;
+    } else if (arg == "--sizes" && has_value) {
+      if (!parse_list(argv[++i], sizes, [](const std::string& item, int& n) {
+            n = std::atoi(item.c_str());
+            return n > 0;
+          })) {
+        std::fprintf(stderr, "--sizes: a comma-separated list of pass counts above 0, got '%s'\n", argv[i]);
+        return 2;
       }
-    } else if (std::strcmp(argv[i], "--no-device") == 0) {
+    } else if (arg == "--no-device") {
       use_device = false;
-    } else if (std::strcmp(argv[i], "--keep-heap") == 0) {
+    } else if (arg == "--keep-heap") {
       keep_heap = true;
-    } else if (std::strcmp(argv[i], "--builds") == 0 && i + 1 < argc) {
+    } else if (arg == "--builds" && has_value) {
       // e.g. `--builds changed` to count the instructions of one case alone under callgrind
-      builds.clear();
-      std::string list = argv[++i];
-      bool known = true;
-      for (std::size_t start = 0; start <= list.size();) {
-        const std::size_t end = std::min(list.find(',', start), list.size());
-        const std::string item = list.substr(start, end - start);
-        if (item == "first") builds.push_back(Build::First);
-        else if (item == "changed") builds.push_back(Build::Changed);
-        else if (item == "unchanged") builds.push_back(Build::Unchanged);
-        else known = false;
-        start = end + 1;
+      if (!parse_list(argv[++i], builds, [](const std::string& item, Build& b) {
+            if (item == "first") b = Build::First;
+            else if (item == "new") b = Build::NewPerFrame;
+            else if (item == "changed") b = Build::Changed;
+            else if (item == "unchanged") b = Build::Unchanged;
+            else return false;
+            return true;
+          })) {
+        std::fprintf(stderr, "--builds: a comma-separated list of first, new, changed, unchanged, got '%s'\n", argv[i]);
+        return 2;
       }
-      if (builds.empty() || !known) {
-        std::fprintf(stderr, "--builds: a comma-separated list of first, changed, unchanged\n");
+    } else if (arg == "--shapes" && has_value) {
+      if (!parse_list(argv[++i], shapes, [](const std::string& item, Shape& s) {
+            if (item == "chain") s = Shape::Chain;
+            else if (item == "dag") s = Shape::Dag;
+            else if (item == "dag-long") s = Shape::DagLong;
+            else return false;
+            return true;
+          })) {
+        std::fprintf(stderr, "--shapes: a comma-separated list of chain, dag, dag-long, got '%s'\n", argv[i]);
         return 2;
       }
     } else {
-      std::fprintf(stderr, "usage: %s [--runs N] [--sizes 10,100,...] [--no-device] [--keep-heap] [--builds first,changed,unchanged]\n", argv[0]);
+      std::fprintf(stderr, "unknown or incomplete argument '%s'\n%s", argv[i], usage_text);
       return 2;
     }
   }
@@ -513,31 +568,35 @@ int main(int argc, char** argv) {
     mallopt(M_TRIM_THRESHOLD, 256 << 20);
     mallopt(M_MMAP_THRESHOLD, 256 << 20);
   }
-  std::printf("## weft.graph benchmark\n\nSetup (declaring every pass) + compile (validate, cull, order, lifetimes, "
-              "aliasing, barriers), median of %d runs.\n\n",
+  std::printf("## weft.graph benchmark\n\nMedians of %d frames (half at 10,000+ passes). setup = making or reset() of "
+              "the graph + declaring every pass; compile = validate, cull, order, lifetimes, aliasing, barriers; "
+              "frame = setup + compile + destroying the compiled graph (and a graph made per frame); thread-CPU "
+              "and minor page faults (getrusage, mean per frame) cover the frame.\n\n",
               runs);
-  std::printf("First build: a new RenderGraph per run. Reset + rebuild: one RenderGraph, reset() and rebuilt per "
-              "run (a frame loop's steady state), either with one declaration different from the last run (a full "
-              "compile) or identical (compile() reuses the last run's plan).\n\n");
-  std::printf("| graph | build | passes | setup µs | compile µs | setup+compile µs | µs/pass | setup+compile thread-CPU µs |\n"
-              "|:--|:--|--:|--:|--:|--:|--:|--:|\n");
-  for (Build build : builds) {
-    for (int n : sizes) {
-      const auto pass_names = names("pass", n), tex_names = names("tex", n);
-      const int r = n >= 10000 ? std::max(7, runs / 2) : runs;
-      const Timing chain = time_chain(n, r, build, pass_names, tex_names);
-      std::printf("| chain | %s | %d | %.1f | %.1f | %.1f | %.3f | %.1f |\n", to_string(build), n, chain.setup_us,
-                  chain.compile_us, chain.total_us, chain.total_us / n, chain.cpu_us);
-    }
-  }
-  for (Build build : builds) {
-    for (int n : sizes) {
-      const auto pass_names = names("pass", n), tex_names = names("tex", n);
-      const int r = n >= 10000 ? std::max(7, runs / 2) : runs;
-      std::size_t culled = 0;
-      const Timing dag = time_dag(make_dag(n, 42), r, build, pass_names, tex_names, &culled);
-      std::printf("| random DAG (%zu culled) | %s | %d | %.1f | %.1f | %.1f | %.3f | %.1f |\n", culled, to_string(build),
-                  n, dag.setup_us, dag.compile_us, dag.total_us, dag.total_us / n, dag.cpu_us);
+  std::printf("Builds: first = a new RenderGraph per frame; new graph per frame = a new RenderGraph per frame made "
+              "with a GraphMemory kept across frames; reset + rebuild = one RenderGraph, reset() and declared again. "
+              "Changed frames differ from the last in their last declaration (a full compile every frame); unchanged "
+              "frames declare the same (compile() reuses the last plan).\n\n");
+  std::printf("| graph | build | passes | setup µs | compile µs | setup+compile µs | µs/pass | frame µs | frame "
+              "thread-CPU µs | minor faults/frame |\n|:--|:--|--:|--:|--:|--:|--:|--:|--:|--:|\n");
+  for (Shape shape : shapes) {
+    for (Build build : builds) {
+      for (int n : sizes) {
+        const auto pass_names = names("pass", n), tex_names = names("tex", n);
+        const int r = n >= 10000 ? std::max(7, runs / 2) : runs;
+        std::size_t culled = 0;
+        Timing t;
+        std::string label = "chain";
+        if (shape == Shape::Chain) {
+          t = time_chain(n, r, build, pass_names, tex_names);
+        } else {
+          t = time_dag(make_dag(n, 42, shape == Shape::Dag), r, build, pass_names, tex_names, &culled);
+          label = weft::format("{} ({} culled)", shape == Shape::Dag ? "random DAG" : "random DAG, long reads", culled);
+        }
+        std::printf("| %s | %s | %d | %.1f | %.1f | %.1f | %.3f | %.1f | %.1f | %.1f |\n", label.c_str(),
+                    to_string(build), n, t.setup_us, t.compile_us, t.total_us, t.total_us / n, t.frame_us, t.cpu_us,
+                    t.faults);
+      }
     }
   }
 

@@ -392,12 +392,63 @@ Error Blackboard::missing(std::string_view key, ResourceType type) const {
                                                 held.empty() ? std::string("it is empty") : "it holds " + held)};
 }
 
+// ---- GraphMemory ---------------------------------------------------------------------------
+
+namespace detail {
+// What a GraphMemory keeps between graphs: the two sets of arrays the last graph alternated
+// between (its last frame's declarations and the spare set).
+struct KeptGraphs {
+  std::shared_ptr<GraphData> last, spare;
+};
+}  // namespace detail
+
+GraphMemory::GraphMemory() : kept_(std::make_shared<detail::KeptGraphs>()) {}
+GraphMemory::~GraphMemory() = default;
+
+void GraphMemory::release() {
+  kept_->last.reset();
+  kept_->spare.reset();
+}
+
 // ---- RenderGraph ---------------------------------------------------------------------------
 
 RenderGraph::RenderGraph(std::string_view name) : data_(std::make_shared<GraphData>(name)) {}
+
+RenderGraph::RenderGraph(std::string_view name, GraphMemory& memory) : memory_(memory.kept_) {
+  data_ = std::move(memory_->last);
+  spare_ = std::move(memory_->spare);
+  if (!data_) {  // nothing kept (the first graph, or another graph holds the memory)
+    data_ = std::make_shared<GraphData>(name);
+    return;
+  }
+  // The last graph's declarations become this graph's last frame, exactly as after reset().
+  reset();
+  data_->name.assign(name);
+}
+
 RenderGraph::RenderGraph(RenderGraph&&) noexcept = default;
-RenderGraph& RenderGraph::operator=(RenderGraph&&) noexcept = default;
-RenderGraph::~RenderGraph() = default;
+
+RenderGraph& RenderGraph::operator=(RenderGraph&& other) noexcept {
+  if (this != &other) {
+    give_back_memory();
+    data_ = std::move(other.data_);
+    spare_ = std::move(other.spare_);
+    memory_ = std::move(other.memory_);
+  }
+  return *this;
+}
+
+RenderGraph::~RenderGraph() { give_back_memory(); }
+
+void RenderGraph::give_back_memory() {
+  if (!memory_ || !data_) return;
+  // What the callbacks captured goes with the graph, unless its compiled graph still needs
+  // it (then when the next graph reuses these arrays), as after reset().
+  if (data_.use_count() == 1) data_->release_callbacks();
+  memory_->last = std::move(data_);
+  memory_->spare = std::move(spare_);
+  memory_.reset();
+}
 
 void RenderGraph::reset() {
   // This frame's arrays become the previous ones; the next frame's are the other set, unless

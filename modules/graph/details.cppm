@@ -22,6 +22,7 @@ import :blackboard;
 namespace weft::detail {
 
 struct GraphData;
+struct KeptGraphs;     // builder.cpp
 struct CompiledState;  // compiled_state.cppm
 struct Executor;       // execute.cpp
 

@@ -113,10 +113,37 @@ class PassContext {
 };
 
 
+// ---- memory kept between graphs ---------------------------------------------------------
+// For a frame loop that builds a new RenderGraph every frame (as Filament and Frostbite do):
+// the application keeps one GraphMemory and hands it to each frame's graph, which takes the
+// arrays, arena and compile state the last graph left there and gives them back when it is
+// destroyed (Filament's LinearAllocatorArena plays this part). A new graph then costs what
+// reset() and a rebuild cost: no allocation and no page fault when the frame keeps its shape,
+// and, like reset(), compile() takes last frame's plan over when the frame declares the same.
+// One thread builds graphs from a GraphMemory at a time; a graph made while another one
+// holds the memory gets memory of its own. Objects the execute callbacks captured are
+// destroyed with the graph, or, while its compiled graph lives, when the next graph reuses
+// the memory. What is kept lives as long as the GraphMemory or the last graph made from it.
+class GraphMemory {
+ public:
+  GraphMemory();
+  GraphMemory(const GraphMemory&) = delete;
+  GraphMemory& operator=(const GraphMemory&) = delete;
+  ~GraphMemory();
+  // Frees what is kept now (e.g. after a frame much larger than the ones to come).
+  void release();
+
+ private:
+  std::shared_ptr<detail::KeptGraphs> kept_;
+  friend class RenderGraph;
+};
+
 // ---- the graph -------------------------------------------------------------------------
 class RenderGraph {
  public:
   explicit RenderGraph(std::string_view name = "frame");
+  // A graph in memory the last graph made with `memory` left (see GraphMemory).
+  RenderGraph(std::string_view name, GraphMemory& memory);
   RenderGraph(RenderGraph&&) noexcept;
   RenderGraph& operator=(RenderGraph&&) noexcept;
   ~RenderGraph();
@@ -195,6 +222,8 @@ class RenderGraph {
  private:
   std::shared_ptr<detail::GraphData> data_;
   std::shared_ptr<detail::GraphData> spare_;  // the other set of arrays reset() switches between
+  std::shared_ptr<detail::KeptGraphs> memory_;  // where both go back when the graph is destroyed
+  void give_back_memory();
 };
 
 // ---- the compiled graph ----------------------------------------------------------------

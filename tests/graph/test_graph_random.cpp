@@ -488,6 +488,117 @@ TEST_CASE("reset: an identical rebuild reuses last frame's plan, which equals a 
   CHECK(reused == 120);
 }
 
+TEST_CASE("GraphMemory: a new graph per frame compiles exactly as a graph of its own; identical frames reuse the plan") {
+  // Each seed is built in two frames, each a new RenderGraph made with the memory: the first
+  // plans (last frame was another seed), the second takes its plan over. Seeds give graphs
+  // of 3 to 40 passes, so the kept arrays are grown and shrunk; every third compiled graph is
+  // kept alive while the next graphs are built (they then get memory of their own).
+  GraphMemory memory;
+  std::optional<CompiledGraph> kept;
+  std::string kept_dump;
+  int reused = 0;
+  for (std::uint32_t seed = 1; seed <= 150; ++seed) {
+    for (int frame = 0; frame < 2; ++frame) {
+      RenderGraph graph("random", memory);
+      CHECK(graph.pass_count() == 0);
+      CHECK(graph.resource_count() == 0);
+      CHECK(graph.name() == "random");
+      const Model model = build(graph, seed);
+      auto compiled = graph.compile({.output_extent = {64, 64, 1}});
+      REQUIRE_MESSAGE(compiled, "seed " << seed << ": " << compiled.error().to_string());
+      check(model, *compiled, seed);
+      RenderGraph fresh("random");
+      build(fresh, seed);
+      auto expected = fresh.compile({.output_extent = {64, 64, 1}});
+      REQUIRE(expected);
+      CHECK_MESSAGE(compiled->dump() == expected->dump(), "seed " << seed << " frame " << frame);
+      CHECK_MESSAGE(compiled->to_dot() == expected->to_dot(), "seed " << seed << " frame " << frame);
+      if (frame == 0) CHECK_FALSE(compiled->plan_reused());
+      reused += compiled->plan_reused() ? 1 : 0;
+      if (kept) CHECK_MESSAGE(kept->dump() == kept_dump, "seed " << seed << ": a kept compiled graph changed");
+      if (frame == 1 && seed % 3 == 0) {
+        kept_dump = compiled->dump();
+        kept.emplace(std::move(*compiled));
+      } else if (frame == 1 && seed % 3 == 1) {
+        kept.reset();
+      }
+    }
+  }
+  // Frame 1 reuses whenever frame 0's compiled graph was gone in time, which it always is here.
+  CHECK(reused == 150);
+}
+
+TEST_CASE("GraphMemory: overlapping graphs, a memory released or destroyed before its graph, moved graphs") {
+  const CompileOptions options{.output_extent = {64, 64, 1}};
+  auto expected_dump = [&](std::uint32_t seed) {
+    RenderGraph fresh("random");
+    build(fresh, seed);
+    auto expected = fresh.compile(options);
+    REQUIRE(expected);
+    return expected->dump();
+  };
+  SUBCASE("two graphs alive at once: the second gets memory of its own, both compile as fresh graphs") {
+    GraphMemory memory;
+    for (int round = 0; round < 3; ++round) {
+      RenderGraph first("random", memory);
+      RenderGraph second("random", memory);
+      build(first, 11);
+      build(second, 12);
+      auto a = first.compile(options);
+      auto b = second.compile(options);
+      REQUIRE(a);
+      REQUIRE(b);
+      CHECK(a->dump() == expected_dump(11));
+      CHECK(b->dump() == expected_dump(12));
+    }
+  }
+  SUBCASE("the memory destroyed while its graph lives: the graph keeps what it took") {
+    std::optional<GraphMemory> memory(std::in_place);
+    { RenderGraph warm("random", *memory); build(warm, 5); }
+    RenderGraph graph("random", *memory);
+    memory.reset();
+    build(graph, 6);
+    auto compiled = graph.compile(options);
+    REQUIRE(compiled);
+    CHECK(compiled->dump() == expected_dump(6));
+  }
+  SUBCASE("release() while a graph holds the memory, and between graphs") {
+    GraphMemory memory;
+    {
+      RenderGraph graph("random", memory);
+      build(graph, 7);
+      memory.release();
+      auto compiled = graph.compile(options);
+      REQUIRE(compiled);
+      CHECK(compiled->dump() == expected_dump(7));
+    }
+    memory.release();
+    RenderGraph graph("random", memory);
+    build(graph, 7);
+    auto compiled = graph.compile(options);
+    REQUIRE(compiled);
+    CHECK_FALSE(compiled->plan_reused());  // nothing was kept to reuse
+    CHECK(compiled->dump() == expected_dump(7));
+  }
+  SUBCASE("a graph moved into another gives the other's memory back first") {
+    GraphMemory memory_a, memory_b;
+    RenderGraph a("random", memory_a);
+    build(a, 8);
+    { REQUIRE(a.compile(options)); }
+    RenderGraph b("random", memory_b);
+    build(b, 9);
+    b = std::move(a);  // b's arrays go back to memory_b, a's come with it
+    auto compiled = b.compile(options);
+    REQUIRE(compiled);
+    CHECK(compiled->dump() == expected_dump(8));
+    RenderGraph again("random", memory_b);  // takes what b held before the move
+    build(again, 9);
+    auto second = again.compile(options);
+    REQUIRE(second);
+    CHECK(second->dump() == expected_dump(9));
+  }
+}
+
 namespace {
 
 // A small frame with every kind of declaration a plan depends on; `change` alters one of them.
