@@ -18,18 +18,7 @@ module weft.scene;
 import weft.core;
 
 namespace weft::scene {
-namespace {
-
-// A PLY header's property and element, as the body check walks them.
-struct PlyProperty {
-  bool list = false;
-  std::string_view count_type;
-  std::string_view type;
-};
-struct PlyElement {
-  std::size_t count = 0;
-  std::vector<PlyProperty> properties;
-};
+namespace detail {
 
 int ply_type_size(std::string_view t) {
   if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
@@ -49,31 +38,32 @@ long long ply_binary_integer(const unsigned char* p, std::string_view t, bool bi
   return static_cast<long long>(u);
 }
 
-}  // namespace
-
-namespace detail {
-
 // OpenMesh's PLY reader loops forever on a header that ends early or is malformed, and
 // trusts every list count in the body (a corrupt count of -3 becomes a 4-billion-entry
 // list and the process runs out of memory). So the whole file is checked against the PLY
 // grammar first: magic, format, comment/obj_info, element and property lines up to
 // end_header; then every element's values, ASCII tokens or binary bytes, with list counts
-// from 0 to 4096.
-Result<void> check_ply(const std::filesystem::path& path) {
-  auto bytes = detail::read_file(path, "mesh file");
-  if (!bytes) return std::unexpected(bytes.error());
+// from 0 to 4096 (a 'tristrips' element's list, which weft turns into faces itself, may be
+// as long as the file).
+Result<PlyLayout> check_ply(const std::filesystem::path& path) {
+  auto file = detail::read_file(path, "mesh file");
+  if (!file) return std::unexpected(file.error());
+  PlyLayout layout;
+  layout.bytes = std::move(*file);
+  const std::vector<unsigned char>* bytes = &layout.bytes;
   const std::string_view text(reinterpret_cast<const char*>(bytes->data()), bytes->size());
-  const auto bad = [&](std::size_t line, std::string_view why) -> Result<void> {
+  const auto bad = [&](std::size_t line, std::string_view why) -> Result<PlyLayout> {
     return fail(ErrorKind::Parse, "'{}': PLY header line {}: {}", path.string(), line, why);
   };
   std::size_t pos = 0, line_number = 0;
   std::string_view format;
-  std::vector<PlyElement> elements;
+  std::vector<PlyLayout::Element>& elements = layout.elements;
   bool header_done = false;
   while (!header_done) {
     const std::size_t end = text.find('\n', pos);
     if (end == std::string_view::npos || end > (1u << 16)) return bad(line_number + 1, "the header has no end_header line");
     std::string_view line = text.substr(pos, end - pos);
+    const std::size_t line_begin = pos;
     pos = end + 1;
     ++line_number;
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
@@ -106,13 +96,17 @@ Result<void> check_ply(const std::filesystem::path& path) {
     if (words[0] == "end_header") {
       if (words.size() != 1) return bad(line_number, "text after end_header");
       if (elements.empty()) return bad(line_number, "no element declared");
+      elements.back().header_end = line_begin;
       header_done = true;
     } else if (words[0] == "element") {
       if (words.size() != 3 || words[2].empty() || words[2].size() > 10 ||
           !std::all_of(words[2].begin(), words[2].end(), [](char c) { return c >= '0' && c <= '9'; })) {
         return bad(line_number, "expected 'element <name> <count>'");
       }
-      PlyElement e;
+      PlyLayout::Element e;
+      e.name = words[1];
+      e.header_begin = line_begin;
+      if (!elements.empty()) elements.back().header_end = line_begin;
       e.count = std::stoull(std::string(words[2]));
       if (e.count > bytes->size()) return bad(line_number, "the element count is larger than the file could hold");
       elements.push_back(std::move(e));
@@ -123,14 +117,17 @@ Result<void> check_ply(const std::filesystem::path& path) {
                         ply_type_size(words[3]) > 0 && words[2] != "float" && words[2] != "double" &&
                         words[2] != "float32" && words[2] != "float64";
       if (!scalar && !list) return bad(line_number, "expected 'property <type> <name>' or 'property list <integer type> <type> <name>'");
-      elements.back().properties.push_back(list ? PlyProperty{true, words[2], words[3]} : PlyProperty{false, {}, words[1]});
+      elements.back().properties.push_back(list ? PlyLayout::Property{true, std::string(words[2]), std::string(words[3]), std::string(words[4])}
+                                                : PlyLayout::Property{false, {}, std::string(words[1]), std::string(words[2])});
     } else {
       return bad(line_number, "unknown keyword");
     }
   }
 
-  constexpr long long max_list = 4096;
-  const auto body_error = [&](std::string_view why) -> Result<void> {
+  layout.format = std::string(format);
+  layout.body_begin = pos;
+  constexpr long long max_face_list = 4096;
+  const auto body_error = [&](std::string_view why) -> Result<PlyLayout> {
     return fail(ErrorKind::Parse, "'{}': PLY data: {}", path.string(), why);
   };
   if (format == "ascii") {
@@ -146,47 +143,53 @@ Result<void> check_ply(const std::filesystem::path& path) {
       return !t.empty() && ec == std::errc() && ptr == t.data() + t.size();
     };
     for (std::size_t e = 0; e < elements.size(); ++e) {
+      elements[e].body_begin = pos;
+      const long long max_list = elements[e].name == "tristrips" ? static_cast<long long>(text.size()) : max_face_list;
       for (std::size_t item = 0; item < elements[e].count; ++item) {
-        for (const PlyProperty& prop : elements[e].properties) {
+        for (const PlyLayout::Property& prop : elements[e].properties) {
           long long n = 1;
           if (prop.list) {
             const std::string_view t = next_token();
             const auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), n);
             if (t.empty() || ec != std::errc() || ptr != t.data() + t.size() || n < 0 || n > max_list) {
-              return body_error(fmt::format("element {} item {}: '{}' is not a list length (0 to {})", e, item, t.substr(0, 20), max_list));
+              return body_error(fmt::format("element '{}' item {}: '{}' is not a list length (0 to {})", elements[e].name, item, t.substr(0, 20), max_list));
             }
           }
           for (long long k = 0; k < n; ++k) {
             const std::string_view t = next_token();
-            if (t.empty()) return body_error(fmt::format("the file ends in element {} item {}", e, item));
-            if (!number(t)) return body_error(fmt::format("element {} item {}: '{}' is not a number", e, item, t.substr(0, 20)));
+            if (t.empty()) return body_error(fmt::format("the file ends in element '{}' item {}", elements[e].name, item));
+            if (!number(t)) return body_error(fmt::format("element '{}' item {}: '{}' is not a number", elements[e].name, item, t.substr(0, 20)));
           }
         }
       }
+      elements[e].body_end = pos;
     }
   } else {
     const bool big_endian = format == "binary_big_endian";
     for (std::size_t e = 0; e < elements.size(); ++e) {
+      elements[e].body_begin = pos;
+      const long long max_list = elements[e].name == "tristrips" ? static_cast<long long>(bytes->size()) : max_face_list;
       for (std::size_t item = 0; item < elements[e].count; ++item) {
-        for (const PlyProperty& prop : elements[e].properties) {
+        for (const PlyLayout::Property& prop : elements[e].properties) {
           long long n = 1;
           if (prop.list) {
             const auto size = std::size_t(ply_type_size(prop.count_type));
-            if (bytes->size() - pos < size) return body_error(fmt::format("the file ends in element {} item {}", e, item));
+            if (bytes->size() - pos < size) return body_error(fmt::format("the file ends in element '{}' item {}", elements[e].name, item));
             n = ply_binary_integer(bytes->data() + pos, prop.count_type, big_endian);
             pos += size;
             if (n < 0 || n > max_list) {
-              return body_error(fmt::format("element {} item {}: list length {} is outside 0 to {}", e, item, n, max_list));
+              return body_error(fmt::format("element '{}' item {}: list length {} is outside 0 to {}", elements[e].name, item, n, max_list));
             }
           }
           const std::size_t size = std::size_t(n) * std::size_t(ply_type_size(prop.type));
-          if (bytes->size() - pos < size) return body_error(fmt::format("the file ends in element {} item {}", e, item));
+          if (bytes->size() - pos < size) return body_error(fmt::format("the file ends in element '{}' item {}", elements[e].name, item));
           pos += size;
         }
       }
+      elements[e].body_end = pos;
     }
   }
-  return {};
+  return layout;
 }
 
 // Debian's OpenMesh is built with assertions, and its OBJ reader asserts (aborting the

@@ -15,6 +15,8 @@ module;
 #include <expected>
 #include <filesystem>
 #include <new>
+#include <optional>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -219,7 +221,8 @@ struct CornerKeyHash {
   }
 };
 
-Result<Mesh> read_with_openmesh(const std::filesystem::path& path) {
+// `contents`: the file as OpenMesh should read it, when weft rewrote it (PLY tristrips).
+Result<Mesh> read_with_openmesh(const std::filesystem::path& path, const std::optional<std::string>& contents = std::nullopt) {
   std::error_code ec;
   const auto size = std::filesystem::file_size(path, ec);
   PolyMesh pm;
@@ -232,7 +235,12 @@ Result<Mesh> read_with_openmesh(const std::filesystem::path& path) {
   bool read_ok = false;
   {
     om::QuietStreams quiet;
-    read_ok = omio::IOManager().read(path.string(), importer, opt);
+    if (contents) {
+      std::istringstream stream(*contents, std::ios::in | std::ios::binary);
+      read_ok = omio::IOManager().read(stream, detail::lowercase_extension(path), importer, opt);
+    } else {
+      read_ok = omio::IOManager().read(path.string(), importer, opt);
+    }
   }
   if (!read_ok) {
     return fail(ErrorKind::Parse, "'{}': OpenMesh could not read the file (corrupt, or a variant of the format it does not read)",
@@ -265,6 +273,10 @@ Result<Mesh> read_with_openmesh(const std::filesystem::path& path) {
   const bool has_normals = !stl && opt.vertex_has_normal();
   const bool corner_uvs = !stl && opt.face_has_texcoord();
   const bool vertex_uvs = !stl && !corner_uvs && opt.vertex_has_texcoord();
+  // OBJ puts v = 0 at the bottom of the image; weft (like glTF and Vulkan) samples v = 0 as
+  // the top row, so OBJ's v is flipped here, once. PLY and OFF have no agreed convention
+  // and are read as written (docs/scene-format.md).
+  const bool flip_v = detail::lowercase_extension(path) == ".obj";
   std::unordered_map<CornerKey, std::uint32_t, CornerKeyHash> split;
   split.reserve(pm.n_vertices() * 2);
   std::vector<std::uint32_t> polygon;
@@ -280,6 +292,7 @@ Result<Mesh> read_with_openmesh(const std::filesystem::path& path) {
         const auto t = pm.texcoord2D(vh);
         uv = vec2(t[0], t[1]);
       }
+      if (flip_v) uv.y = 1.0f - uv.y;
       vec3 normal(0.0f);
       if (has_normals) {
         auto nrm = pm.normal(heh);  // the corner's own normal (OBJ), else the vertex's
@@ -363,14 +376,19 @@ Result<Mesh> load_mesh(const std::filesystem::path& path, const LoadOptions& opt
     const std::string ext = detail::lowercase_extension(path);
     Result<Mesh> mesh = std::unexpected(Error{});
     if (ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl") {
+      std::optional<std::string> rewritten;
       if (ext == ".obj") {
         if (auto ok = detail::check_obj_faces(path); !ok) return std::unexpected(ok.error());
       } else if (ext == ".ply") {
-        if (auto ok = detail::check_ply(path); !ok) return std::unexpected(ok.error());
+        auto layout = detail::check_ply(path);
+        if (!layout) return std::unexpected(layout.error());
+        auto faces = detail::ply_strips_as_faces(path, *layout);
+        if (!faces) return std::unexpected(faces.error());
+        rewritten = std::move(*faces);
       } else if (ext == ".off") {
         if (auto ok = detail::check_off(path); !ok) return std::unexpected(ok.error());
       }
-      mesh = read_with_openmesh(path);
+      mesh = read_with_openmesh(path, rewritten);
     } else if (ext == ".gltf" || ext == ".glb") {
       mesh = merge_gltf(path);
     } else {

@@ -69,7 +69,8 @@ struct Mesh {
   std::vector<vec3> normals;    // unit length
   std::vector<vec4> tangents;   // xyz unit and orthogonal to the normal; w = +-1 handedness:
                                 // bitangent = w * cross(normal, tangent.xyz) (glTF's rule)
-  std::vector<vec2> uvs;        // empty when the source had none
+  std::vector<vec2> uvs;        // empty when the source had none; v = 0 is the image's top
+                                // row (glTF's convention; OBJ's v is flipped on load)
   std::vector<std::uint32_t> indices;  // triangle list
   // Skin curvature (d'Eon & Luebke's |dn|/|dp|): per vertex, the mean over its edges of
   // |n_i - n_j| / |p_i - p_j|. 1/r on a sphere of radius r; >= 0; in 1/length units.
@@ -493,7 +494,37 @@ struct Welding {
 [[nodiscard]] vec3 any_orthogonal(const vec3& n);
 // Checks of a mesh file's grammar before OpenMesh reads it (file_checks.cpp): Parse errors.
 [[nodiscard]] Result<void> check_obj_faces(const std::filesystem::path& path);
-[[nodiscard]] Result<void> check_ply(const std::filesystem::path& path);
+// A PLY file checked against its grammar: its bytes, and where each element's header lines
+// and body data lie (byte offsets into `bytes`).
+struct PlyLayout {
+  struct Property {
+    bool list = false;
+    std::string count_type;  // lists only
+    std::string type;
+    std::string name;
+  };
+  struct Element {
+    std::string name;
+    std::size_t count = 0;
+    std::vector<Property> properties;
+    std::size_t header_begin = 0, header_end = 0;  // its "element" line up to the next element or end_header
+    std::size_t body_begin = 0, body_end = 0;
+  };
+  std::vector<unsigned char> bytes;
+  std::string format;  // "ascii", "binary_little_endian" or "binary_big_endian"
+  std::size_t body_begin = 0;
+  std::vector<Element> elements;
+};
+[[nodiscard]] Result<PlyLayout> check_ply(const std::filesystem::path& path);
+// PLY scalar type sizes (0: unknown type) and one binary integer of a type.
+[[nodiscard]] int ply_type_size(std::string_view type);
+[[nodiscard]] long long ply_binary_integer(const unsigned char* p, std::string_view type, bool big_endian);
+// A file that stores its faces as a 'tristrips' element (one vertex-index list per strip,
+// -1 restarts the strip) rewritten with that element as a 'face' element of the strips'
+// triangles, for OpenMesh (ply_strips.cpp); nullopt when the file has no 'tristrips'.
+// Parse errors name the file and the element.
+[[nodiscard]] Result<std::optional<std::string>> ply_strips_as_faces(const std::filesystem::path& path,
+                                                                    const PlyLayout& layout);
 [[nodiscard]] Result<void> check_off(const std::filesystem::path& path);
 // Curvature of a valid mesh with normals; returns how many faces OpenMesh refused as
 // non-manifold (left out of mean and Gaussian curvature).

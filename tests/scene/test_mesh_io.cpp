@@ -81,17 +81,61 @@ TEST_CASE("OBJ: a quad with UVs and normals loads with its counts, positions and
   CHECK(mesh->has_uvs());
   CHECK(has_position(*mesh, {2, 3, 0}));
   for (std::size_t i = 0; i < 4; ++i) {
-    // u = x / 2 and v = y / 3 for this quad: the UVs travelled with their corners.
+    // u = x / 2 and OBJ's v = y / 3 for this quad: the UVs travelled with their corners,
+    // and v is flipped into weft's convention (v = 0 the image's top row).
     CHECK(mesh->uvs[i].x == doctest::Approx(mesh->positions[i].x / 2.0f));
-    CHECK(mesh->uvs[i].y == doctest::Approx(mesh->positions[i].y / 3.0f));
+    CHECK(mesh->uvs[i].y == doctest::Approx(1.0f - mesh->positions[i].y / 3.0f));
     CHECK(near3(mesh->normals[i], {0, 0, 1}));
     CHECK(near3(vec3(mesh->tangents[i]), {1, 0, 0}));  // u grows along +X
-    CHECK(mesh->tangents[i].w == 1.0f);
+    CHECK(mesh->tangents[i].w == -1.0f);  // the bitangent follows +v, which runs down the quad (-Y)
     CHECK(mesh->curvature[i] == 0.0f);  // flat
   }
   CHECK(mesh->bounds.min == vec3(0, 0, 0));
   CHECK(mesh->bounds.max == vec3(2, 3, 0));
   check_prepared(*mesh);
+}
+
+TEST_CASE("texture orientation: each format's UV corners sample the texels its authors meant") {
+  // A 2x2 image stored top row first: TL, TR / BL, BR. weft samples (u, v) = (0, 0) as the
+  // top-left texel, so the texel a UV names is (floor(2u), floor(2v)).
+  const auto texel = [](weft::vec2 uv) {
+    const int x = std::clamp(int(std::floor(uv.x * 2.0f)), 0, 1), y = std::clamp(int(std::floor(uv.y * 2.0f)), 0, 1);
+    return std::string(y == 0 ? "T" : "B") + (x == 0 ? "L" : "R");
+  };
+  const auto texel_at = [&](const sc::Mesh& m, vec3 corner_towards) {
+    // The UV a quarter of the way from the centre towards a corner: averaging the two
+    // triangles' corners is not needed, the quad's UVs are affine in position.
+    for (std::size_t i = 0; i < m.vertex_count(); ++i) {
+      if (near3(m.positions[i], corner_towards)) {
+        const weft::vec2 centre(0.5f);
+        return texel(centre + (m.uvs[i] - centre) * 0.5f);
+      }
+    }
+    return std::string("none");
+  };
+  TempDir dir;
+  SUBCASE("OBJ: v = 0 is the image's bottom row") {
+    // An upright image on a quad facing +Z: vt (0, 0) at the bottom-left corner.
+    write_file(dir / "quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                                 "f 1/1 2/2 3/3 4/4\n");
+    auto mesh = sc::load_mesh(dir / "quad.obj");
+    REQUIRE_MESSAGE(mesh.has_value(), mesh.error().what());
+    CHECK(texel_at(*mesh, {0, 0, 0}) == "BL");
+    CHECK(texel_at(*mesh, {1, 0, 0}) == "BR");
+    CHECK(texel_at(*mesh, {1, 1, 0}) == "TR");
+    CHECK(texel_at(*mesh, {0, 1, 0}) == "TL");
+  }
+  SUBCASE("glTF: v = 0 is the image's top row, read as written") {
+    // support.h's quad: TEXCOORD_0 (0, 0) at the origin, v growing along +Y.
+    write_file(dir / "quad.gltf", gltf_json());
+    auto mesh = sc::load_mesh(dir / "quad.gltf");
+    REQUIRE_MESSAGE(mesh.has_value(), mesh.error().what());
+    // Merged in world space: the child instance spans (1,2)-(3,4), u along +X, v along +Y.
+    CHECK(texel_at(*mesh, {1, 2, 0}) == "TL");
+    CHECK(texel_at(*mesh, {3, 2, 0}) == "TR");
+    CHECK(texel_at(*mesh, {3, 4, 0}) == "BR");
+    CHECK(texel_at(*mesh, {1, 4, 0}) == "BL");
+  }
 }
 
 TEST_CASE("OBJ: a UV seam splits vertices, but normals and curvature stay welded") {
@@ -204,6 +248,128 @@ TEST_CASE("PLY (ASCII and binary) and OFF and STL load with their counts and pos
   }
 }
 
+namespace {
+// A 3x3 grid of vertices (c, r, 0), index r * 3 + c, as two triangle strips of one row of
+// quads each, the second after a -1 restart: 8 triangles, all facing +Z when the strips'
+// alternate winding is followed.
+const std::vector<std::int32_t> grid_strips = {3, 0, 4, 1, 5, 2, -1, 6, 3, 7, 4, 8, 5};
+
+std::string strips_ply_header(std::string_view format, std::size_t strip_items, std::string_view list_type = "int") {
+  return "ply\nformat " + std::string(format) + " 1.0\ncomment tristrips as igea.ply has them\nelement vertex 9\n"
+         "property float x\nproperty float y\nproperty float z\nelement tristrips " + std::to_string(strip_items) +
+         "\nproperty list int " + std::string(list_type) + " vertex_indices\nend_header\n";
+}
+
+template <class T>
+void append_big_endian(std::vector<std::uint8_t>& bytes, T value) {
+  std::uint8_t raw[sizeof(T)];
+  std::memcpy(raw, &value, sizeof(T));
+  for (std::size_t i = sizeof(T); i-- > 0;) bytes.push_back(raw[i]);
+}
+
+void check_grid_from_strips(const sc::Mesh& mesh) {
+  CHECK(mesh.triangle_count() == 8);
+  CHECK(mesh.vertex_count() == 9);
+  CHECK(mesh.warnings.empty());
+  double area = 0.0;
+  for (std::size_t t = 0; t < mesh.indices.size(); t += 3) {
+    const vec3 a = mesh.positions[mesh.indices[t]], b = mesh.positions[mesh.indices[t + 1]], c = mesh.positions[mesh.indices[t + 2]];
+    const vec3 n = glm::cross(b - a, c - a);
+    CHECK(n.z > 0.0f);  // every second triangle turned around: one winding for the strip
+    area += 0.5 * glm::length(n);
+  }
+  CHECK(area == doctest::Approx(4.0));  // the 2x2 grid, covered once
+  for (const vec3& n : mesh.normals) CHECK(near3(n, {0, 0, 1}));
+}
+}  // namespace
+
+TEST_CASE("PLY tristrips (ASCII, binary little- and big-endian): -1 restarts a strip, winding alternates") {
+  TempDir dir;
+  SUBCASE("ASCII, both strips in one list") {
+    std::string ply = strips_ply_header("ascii", 1);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) ply += std::to_string(c) + " " + std::to_string(r) + " 0\n";
+    ply += std::to_string(grid_strips.size());
+    for (std::int32_t i : grid_strips) ply += " " + std::to_string(i);
+    write_file(dir / "strips.ply", ply + "\n");
+    auto mesh = sc::load_mesh(dir / "strips.ply");
+    REQUIRE_MESSAGE(mesh.has_value(), mesh.error().what());
+    check_grid_from_strips(*mesh);
+  }
+  SUBCASE("ASCII, one strip per list item") {
+    std::string ply = strips_ply_header("ascii", 2);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) ply += std::to_string(c) + " " + std::to_string(r) + " 0\n";
+    ply += "6 3 0 4 1 5 2\n6 6 3 7 4 8 5\n";
+    write_file(dir / "items.ply", ply);
+    auto mesh = sc::load_mesh(dir / "items.ply");
+    REQUIRE_MESSAGE(mesh.has_value(), mesh.error().what());
+    check_grid_from_strips(*mesh);
+  }
+  SUBCASE("binary, both byte orders") for (const bool big : {false, true}) {
+    CAPTURE(big);
+    const std::string header = strips_ply_header(big ? "binary_big_endian" : "binary_little_endian", 1);
+    std::vector<std::uint8_t> bytes(header.begin(), header.end());
+    const auto put = [&](auto v) { big ? append_big_endian(bytes, v) : append(bytes, v); };
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c)
+        for (float f : {float(c), float(r), 0.0f}) put(f);
+    put(std::int32_t(grid_strips.size()));
+    for (std::int32_t i : grid_strips) put(i);
+    write_file(dir / "binary.ply", bytes);
+    auto mesh = sc::load_mesh(dir / "binary.ply");
+    REQUIRE_MESSAGE(mesh.has_value(), mesh.error().what());
+    check_grid_from_strips(*mesh);
+  }
+  SUBCASE("a strip's join (a repeated vertex) makes no triangle and no warning") {
+    std::string ply = strips_ply_header("ascii", 1);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) ply += std::to_string(c) + " " + std::to_string(r) + " 0\n";
+    // Row 0, then the zero-area join 2 2 6 6 into row 1, which starts at an even place so
+    // it keeps its winding: four triangles with a repeated vertex, all dropped.
+    ply += "14 3 0 4 1 5 2 2 6 6 3 7 4 8 5\n";
+    write_file(dir / "joined.ply", ply);
+    auto mesh = sc::load_mesh(dir / "joined.ply");
+    REQUIRE_MESSAGE(mesh.has_value(), mesh.error().what());
+    check_grid_from_strips(*mesh);
+  }
+}
+
+TEST_CASE("PLY tristrips: malformed strips are refused, naming the element") {
+  TempDir dir;
+  std::string vertices;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) vertices += std::to_string(c) + " " + std::to_string(r) + " 0\n";
+  const auto refused = [&](const std::string& name, const std::string& content, ErrorKind kind, std::string_view why) {
+    write_file(dir / name, content);
+    auto r = sc::load_mesh(dir / name);
+    REQUIRE_FALSE(r.has_value());
+    CHECK(r.error().kind == kind);
+    CHECK_MESSAGE(contains(r.error().message, why), r.error().message);
+    CHECK_MESSAGE(contains(r.error().message, "'tristrips'"), r.error().message);
+    CHECK(contains(r.error().message, name));
+  };
+  SUBCASE("an index past the vertices") {
+    refused("past.ply", strips_ply_header("ascii", 1) + vertices + "4 0 1 9 3\n", ErrorKind::Parse,
+            "vertex index 9 (entry 2) is outside 0 to 8");
+  }
+  SUBCASE("a negative index other than -1") {
+    refused("negative.ply", strips_ply_header("ascii", 1) + vertices + "4 0 1 -2 3\n", ErrorKind::Parse, "vertex index -2");
+  }
+  SUBCASE("a list longer than the file") {
+    refused("long.ply", strips_ply_header("ascii", 1) + vertices + "400000 0 1 2\n", ErrorKind::Parse, "is not a list length");
+  }
+  SUBCASE("float indices") {
+    refused("float.ply", strips_ply_header("ascii", 1, "float") + vertices + "3 0 1 2\n", ErrorKind::Parse,
+            "a list of integer vertex indices");
+  }
+  SUBCASE("both faces and strips") {
+    std::string header = strips_ply_header("ascii", 1);
+    header.insert(header.find("end_header"), "element face 1\nproperty list uchar int vertex_indices\n");
+    refused("both.ply", header + vertices + "3 0 1 2\n3 0 1 2\n", ErrorKind::Unsupported, "both a 'face' and a 'tristrips'");
+  }
+}
+
 TEST_CASE("mesh files: errors name the file and what is wrong") {
   TempDir dir;
   SUBCASE("missing file") {
@@ -290,7 +456,7 @@ TEST_CASE("mesh files: degenerate and non-manifold faces are repaired with a war
     // The copies kept their UVs: (0,-1,0) carries UV (1,1), no garbage.
     for (std::size_t i = 0; i < mesh->vertex_count(); ++i) {
       CHECK(std::isfinite(mesh->uvs[i].x));
-      if (near3(mesh->positions[i], {0, -1, 0})) CHECK(mesh->uvs[i] == vec2(1, 1));
+      if (near3(mesh->positions[i], {0, -1, 0})) CHECK(mesh->uvs[i] == vec2(1, 0));  // OBJ's (1, 1), v flipped
     }
   }
   SUBCASE("three faces on one edge") {
