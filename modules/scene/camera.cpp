@@ -43,8 +43,9 @@ Result<void> validate(const Camera& c) {
       !std::isfinite(c.near) || !std::isfinite(c.far)) {
     return fail(ErrorKind::InvalidArgument, "camera has a non-finite field");
   }
-  if (!(c.fov_y_degrees > 0.0f && c.fov_y_degrees < 180.0f)) {
-    return fail(ErrorKind::InvalidArgument, "camera fov {} is outside (0, 180) degrees", c.fov_y_degrees);
+  if (!(c.fov_y_degrees >= float(min_fov_degrees) && c.fov_y_degrees <= float(max_fov_degrees))) {
+    return fail(ErrorKind::InvalidArgument, "camera fov {} is outside [{}, {}] degrees", c.fov_y_degrees, min_fov_degrees,
+                max_fov_degrees);
   }
   if (!(c.near > 0.0f)) return fail(ErrorKind::InvalidArgument, "camera near {} must be positive", c.near);
   if (!(c.far > c.near)) return fail(ErrorKind::InvalidArgument, "camera far {} must be greater than near {}", c.far, c.near);

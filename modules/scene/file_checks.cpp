@@ -6,6 +6,7 @@
 module;
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <expected>
 #include <filesystem>
@@ -192,10 +193,36 @@ Result<PlyLayout> check_ply(const std::filesystem::path& path) {
   return layout;
 }
 
+// The numbers of an OBJ "v", "vt" or "vn" line (up to a '#' comment): each a finite number.
+static Result<void> check_obj_numbers(const std::filesystem::path& path, std::size_t line_number, std::string_view line) {
+  const std::size_t comment = line.find('#');
+  if (comment != std::string_view::npos) line = line.substr(0, comment);
+  const std::size_t keyword_end = line.find_first_of(" \t");
+  const std::string_view keyword = line.substr(0, keyword_end);
+  for (std::size_t i = keyword_end; i < line.size();) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
+    std::size_t j = i;
+    while (j < line.size() && line[j] != ' ' && line[j] != '\t' && line[j] != '\r') ++j;
+    if (j == i) break;
+    const std::string_view token = line.substr(i, j - i);
+    i = j;
+    const std::string_view digits = token.starts_with('+') ? token.substr(1) : token;
+    double value = 0.0;
+    const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
+    if (ec != std::errc() || ptr != digits.data() + digits.size() || !std::isfinite(value)) {
+      return fail(ErrorKind::Parse, "'{}': line {}: '{}' in a '{}' line is not a finite number", path.string(), line_number,
+                  token.substr(0, 40), keyword);
+    }
+  }
+  return {};
+}
+
 // Debian's OpenMesh is built with assertions, and its OBJ reader asserts (aborting the
 // process) on a face corner without a vertex index ("f /1/1 ..."); every face line is
-// checked first: each corner is v, v/vt, v//vn or v/vt/vn with integer indices.
-Result<void> check_obj_faces(const std::filesystem::path& path) {
+// checked first: each corner is v, v/vt, v//vn or v/vt/vn with integer indices. OpenMesh
+// also drops a vertex it cannot read ("v nan nan nan"), so that its faces later look out of
+// range: every v, vt and vn number must be a finite number.
+Result<void> check_obj(const std::filesystem::path& path) {
   auto bytes = detail::read_file(path, "mesh file");
   if (!bytes) return std::unexpected(bytes.error());
   const std::string_view text(reinterpret_cast<const char*>(bytes->data()), bytes->size());
@@ -214,6 +241,11 @@ Result<void> check_obj_faces(const std::filesystem::path& path) {
     ++line_number;
     std::size_t i = 0;
     while (i < line.size() && is_space(line[i])) ++i;
+    const std::string_view rest = line.substr(i);
+    if (rest.starts_with("v ") || rest.starts_with("v\t") || rest.starts_with("vt ") || rest.starts_with("vn ")) {
+      if (auto ok = check_obj_numbers(path, line_number, rest); !ok) return ok;
+      continue;
+    }
     if (i + 1 >= line.size() || line[i] != 'f' || !is_space(line[i + 1])) continue;
     for (i += 1; i < line.size();) {
       while (i < line.size() && is_space(line[i])) ++i;

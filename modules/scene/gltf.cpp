@@ -76,11 +76,13 @@ class Converter {
  public:
   Converter(const std::filesystem::path& path, const tinygltf::Model& model) : path_(path), model_(model) {
     out_.source = path;
-    base_dir_ = path.parent_path();
+    std::error_code ec;
+    base_dir_ = std::filesystem::absolute(path, ec).parent_path();
   }
 
   Result<GltfScene> run(const std::string& tinygltf_warnings) {
     for (const std::string& line : split_lines(tinygltf_warnings)) warn(weft::format("tinygltf: {}", line));
+    if (auto r = check_asset(); !r) return std::unexpected(r.error());
     if (auto r = check_extensions(); !r) return std::unexpected(r.error());
     if (auto r = check_buffer_views(); !r) return std::unexpected(r.error());
     if (auto r = convert_materials(); !r) return std::unexpected(r.error());
@@ -97,6 +99,21 @@ class Converter {
   }
   void warn(std::string message) {
     detail::warn(out_.warnings, weft::format("glTF '{}': {}", path_.string(), message));
+  }
+
+  // glTF 1.0 files parse as JSON too, but mean something else; "scene" must name a scene.
+  Result<void> check_asset() const {
+    const std::string& version = model_.asset.version;
+    if (!version.starts_with("2.")) {
+      return error(ErrorKind::Unsupported, "asset.version is '{}'; weft reads glTF 2.x", version);
+    }
+    if (!model_.asset.minVersion.empty() && !model_.asset.minVersion.starts_with("2.")) {
+      return error(ErrorKind::Unsupported, "asset.minVersion is '{}'; weft reads glTF 2.x", model_.asset.minVersion);
+    }
+    if (model_.defaultScene >= 0 && std::size_t(model_.defaultScene) >= model_.scenes.size()) {
+      return error(ErrorKind::Parse, "\"scene\" is {}, but there are {} scenes", model_.defaultScene, model_.scenes.size());
+    }
+    return {};
   }
 
   Result<void> check_extensions() const {
@@ -281,7 +298,12 @@ class Converter {
       warn(weft::format("material '{}' {}: image {} has no data; using the factors only", material, slot, source));
       return t;
     }
-    const std::filesystem::path file = base_dir_ / std::filesystem::path(percent_decode(image.uri));
+    const auto inside = gltf_detail::resolve_inside(base_dir_, percent_decode(image.uri));
+    if (!inside) {
+      return error(ErrorKind::InvalidArgument, "material '{}' {}: image uri '{}' leads outside the glTF file's folder",
+                   material, slot, image.uri);
+    }
+    const std::filesystem::path& file = *inside;
     std::error_code ec;
     if (!std::filesystem::is_regular_file(file, ec)) {
       warn(weft::format("material '{}' {}: texture file '{}' not found; using the factors only", material, slot,
@@ -495,12 +517,43 @@ class Converter {
     }
     on_path_.assign(model_.nodes.size(), 0);
     for (int root : roots) {
-      if (auto r = visit(root, mat4(1.0f), -1); !r) return r;
+      if (auto r = visit_tree(root); !r) return r;
     }
     return {};
   }
 
-  Result<void> visit(int index, const mat4& parent, int parent_index) {
+  // Depth first, with the path from the root kept in a vector rather than on the call
+  // stack: a valid file may chain tens of thousands of nodes.
+  Result<void> visit_tree(int root) {
+    struct OnPath {
+      int index;
+      mat4 world;
+      std::size_t next_child;
+    };
+    std::vector<OnPath> path;
+    auto world = visit(root, mat4(1.0f), -1);
+    if (!world) return std::unexpected(world.error());
+    path.push_back({root, *world, 0});
+    while (!path.empty()) {
+      OnPath& top = path.back();
+      const std::vector<int>& children = model_.nodes[std::size_t(top.index)].children;
+      if (top.next_child == children.size()) {
+        on_path_[std::size_t(top.index)] = 0;
+        path.pop_back();
+        continue;
+      }
+      const int child = children[top.next_child++];
+      const int parent = top.index;
+      auto child_world = visit(child, top.world, parent);
+      if (!child_world) return std::unexpected(child_world.error());
+      path.push_back({child, *child_world, 0});
+    }
+    return {};
+  }
+
+  // One node: checks it, adds its instances, camera and light, marks it on the path and
+  // returns its world matrix (visit_tree walks its children).
+  Result<mat4> visit(int index, const mat4& parent, int parent_index) {
     if (index < 0 || std::size_t(index) >= model_.nodes.size()) {
       if (parent_index < 0) return error(ErrorKind::Parse, "the scene names node {}, but there are {} nodes", index, model_.nodes.size());
       return error(ErrorKind::Parse, "node {} has child {}, but there are {} nodes", parent_index, index, model_.nodes.size());
@@ -547,15 +600,10 @@ class Converter {
       }
     }
     if (const auto ext = node.extensions.find("KHR_lights_punctual"); ext != node.extensions.end()) {
-      if (auto r = add_light(ext->second, node_name, origin, forward); !r) return r;
+      if (auto r = add_light(ext->second, node_name, origin, forward); !r) return std::unexpected(r.error());
     }
-
     on_path_[i] = 1;
-    for (int child : node.children) {
-      if (auto r = visit(child, world, index); !r) return r;
-    }
-    on_path_[i] = 0;
-    return {};
+    return world;
   }
 
   static vec3 safe_normalize(const vec3& v, const vec3& fallback) {
@@ -580,6 +628,10 @@ class Converter {
     const std::string name = src.name.empty() ? node_name : src.name;
     if (!std::isfinite(color.x + color.y + color.z + intensity + range) || intensity < 0.0f) {
       return error(ErrorKind::Parse, "light '{}' has a non-finite or negative color, intensity or range", name);
+    }
+    if (double(intensity) > max_light_intensity || double(std::max({color.x, color.y, color.z})) > max_light_color) {
+      return error(ErrorKind::Parse, "light '{}' has intensity {} and color ({}, {}, {}); weft draws up to intensity {} and color {}",
+                   name, intensity, color.x, color.y, color.z, max_light_intensity, max_light_color);
     }
     if (src.type == "directional") {
       out_.lights.emplace_back(DirectionalLight{name, forward, color, intensity});
@@ -609,6 +661,24 @@ class Converter {
   std::size_t visits_ = 0;
 };
 
+// The JSON of a .gltf, or the JSON chunk of a .glb, checked before tinygltf reads it:
+// tinygltf turns JSON into its values recursively (a file nested 20,000 deep overflows the
+// stack), and glTF 2.0 forbids repeated keys. No real asset comes near this depth.
+Result<void> check_json(const std::vector<unsigned char>& bytes) {
+  constexpr std::size_t max_depth = 512;
+  std::string_view json(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+  if (bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0) {
+    std::uint32_t chunk_length = 0;
+    if (bytes.size() < 20) return fail(ErrorKind::Parse, "the GLB header is cut short ({} bytes)", bytes.size());
+    std::memcpy(&chunk_length, bytes.data() + 12, 4);
+    if (chunk_length > bytes.size() - 20) {
+      return fail(ErrorKind::Parse, "the GLB JSON chunk claims {} bytes, but {} follow", chunk_length, bytes.size() - 20);
+    }
+    json = json.substr(20, chunk_length);
+  }
+  return detail::check_json_structure(json, max_depth);
+}
+
 }  // namespace
 
 namespace detail {
@@ -618,9 +688,13 @@ Result<GltfScene> read_gltf(const std::filesystem::path& path) {
     auto bytes = read_file(path, "glTF file");
     if (!bytes) return std::unexpected(bytes.error());
     if (bytes->empty()) return fail(ErrorKind::Parse, "glTF '{}': the file is empty", path.string());
+    if (auto ok = check_json(*bytes); !ok) return fail(ErrorKind::Parse, "glTF '{}': {}", path.string(), ok.error().message);
+    std::error_code ec;
+    const std::filesystem::path base_dir = std::filesystem::absolute(path, ec).parent_path();
+    if (ec) return fail(ErrorKind::Io, "glTF '{}': {}", path.string(), ec.message());
     tinygltf::Model model;
     std::string err, warning;
-    if (!gltf_detail::parse_model(*bytes, path.parent_path().string(), model, err, warning)) {
+    if (!gltf_detail::parse_model(*bytes, base_dir.string(), model, err, warning)) {
       const auto lines = split_lines(err);
       return fail(ErrorKind::Parse, "glTF '{}': {}", path.string(),
                   lines.empty() ? std::string("tinygltf could not parse it") : fmt::format("{}", fmt::join(lines, "; ")));

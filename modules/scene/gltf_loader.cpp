@@ -5,7 +5,10 @@
 
 #include <cstring>
 #include <exception>
+#include <fstream>
+#include <iterator>
 #include <new>
+#include <system_error>
 
 namespace weft::scene::gltf_detail {
 namespace {
@@ -19,11 +22,68 @@ bool keep_encoded(tinygltf::Image* image, const int, std::string*, std::string*,
   return true;
 }
 
+// tinygltf's file access, confined to the asset's folder: a buffer URI such as
+// "../../etc/passwd" is refused with a reason instead of read. tinygltf also looks for a
+// buffer in the current directory; that search finds nothing here.
+struct Confined {
+  std::string base_dir;  // absolute, as parse_model's caller passes it
+};
+
+bool from_base(const std::string& candidate, const Confined& c) { return candidate.starts_with(c.base_dir); }
+
+// The candidate resolved lexically (as URIs are: "sub/../a.bin" is "a.bin"), or nothing when
+// it is tinygltf's search of the current directory or leaves the folder.
+std::optional<std::filesystem::path> resolve(const std::string& candidate, const Confined& c) {
+  if (!from_base(candidate, c)) return std::nullopt;
+  return resolve_inside(c.base_dir, candidate.substr(c.base_dir.size()));
+}
+
+bool file_exists(const std::string& candidate, void* user) {
+  const auto& c = *static_cast<const Confined*>(user);
+  if (!from_base(candidate, c)) return false;
+  const auto inside = resolve(candidate, c);
+  if (!inside) return true;  // read_whole_file says why it is not read
+  std::error_code ec;
+  return std::filesystem::is_regular_file(*inside, ec);
+}
+
+std::string expand_file_path(const std::string& path, void*) { return path; }
+
+bool read_whole_file(std::vector<unsigned char>* out, std::string* err, const std::string& candidate, void* user) {
+  const auto& c = *static_cast<const Confined*>(user);
+  const auto inside = resolve(candidate, c);
+  if (!inside) {
+    if (err) *err += "the URI leads outside the glTF file's folder (weft reads buffers only from that folder)";
+    return false;
+  }
+  std::ifstream in(*inside, std::ios::binary);
+  if (!in) {
+    if (err) *err += "cannot open it";
+    return false;
+  }
+  out->assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  return true;
+}
+
+bool write_whole_file(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err += "weft does not write glTF files";
+  return false;
+}
+
 bool is_glb(const std::vector<unsigned char>& bytes) {
   return bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
 }
 
 }  // namespace
+
+std::optional<std::filesystem::path> resolve_inside(const std::filesystem::path& base_dir, const std::string& relative) {
+  const std::filesystem::path rel(relative);
+  if (relative.empty() || rel.has_root_path()) return std::nullopt;
+  const std::filesystem::path resolved = (base_dir / rel).lexically_normal();
+  const std::filesystem::path inside = resolved.lexically_relative(base_dir.lexically_normal());
+  if (inside.empty() || *inside.begin() == "..") return std::nullopt;
+  return resolved;
+}
 
 bool parse_model(const std::vector<unsigned char>& bytes, const std::string& base_dir, tinygltf::Model& model,
                  std::string& error, std::string& warning) {
@@ -34,6 +94,8 @@ bool parse_model(const std::vector<unsigned char>& bytes, const std::string& bas
     }
     tinygltf::TinyGLTF loader;
     loader.SetImageLoader(&keep_encoded, nullptr);
+    Confined confined{base_dir.ends_with('/') ? base_dir : base_dir + "/"};
+    loader.SetFsCallbacks({&file_exists, &expand_file_path, &read_whole_file, &write_whole_file, &confined});
     const auto length = static_cast<unsigned int>(bytes.size());
     if (is_glb(bytes)) {
       return loader.LoadBinaryFromMemory(&model, &error, &warning, bytes.data(), length, base_dir);

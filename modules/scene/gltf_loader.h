@@ -5,6 +5,8 @@
 // stb_image (weft.image compiles its own) and keeps embedded images as their encoded bytes.
 #pragma once
 
+#include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,8 +21,13 @@
 namespace weft::scene::gltf_detail {
 
 // Parses a .gltf (JSON) or .glb (binary) held in `bytes`; external buffers are read
-// relative to `base_dir`. Never throws: any failure returns false with `error` set.
+// relative to `base_dir` (absolute), and only from inside it. Never throws: any failure
+// returns false with `error` set.
 bool parse_model(const std::vector<unsigned char>& bytes, const std::string& base_dir, tinygltf::Model& model,
                  std::string& error, std::string& warning);
+
+// `relative` (a decoded URI) joined to `base_dir`, or nothing when it is absolute, empty or
+// climbs out of `base_dir` with "..": glTF files name their resources inside their folder.
+std::optional<std::filesystem::path> resolve_inside(const std::filesystem::path& base_dir, const std::string& relative);
 
 }  // namespace weft::scene::gltf_detail

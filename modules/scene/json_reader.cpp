@@ -42,6 +42,12 @@ std::string describe_range(const Range& r) {
   return ": must be finite";
 }
 
+// Scene values are stored as 32-bit floats: a larger finite number would become infinity.
+constexpr double max_float = double(std::numeric_limits<float>::max());
+std::string too_large(double v) {
+  return fmt::format("{} is too large: the limit is {:.3g} in magnitude (values are stored as 32-bit floats)", v, max_float);
+}
+
 bool in_range(double v, const Range& r) {
   if (!std::isfinite(v)) return false;
   if (r.min_exclusive ? !(v > r.min) : !(v >= r.min)) return false;
@@ -125,6 +131,10 @@ double JsonReader::number(std::string_view key, double fallback, Range range) {
     return fallback;
   }
   const double d = v->get<double>();
+  if (std::isfinite(d) && std::abs(d) > max_float) {
+    error_at(key, too_large(d));
+    return fallback;
+  }
   if (!in_range(d, range)) {
     error_at(key, fmt::format("{} is out of range{}", d, describe_range(range)));
     return fallback;
@@ -206,7 +216,12 @@ bool read_numbers(JsonReader& reader, std::string_view key, const nlohmann::json
       continue;
     }
     const double d = e.get<double>();
-    if (!in_range(d, range) || std::abs(d) > double(std::numeric_limits<float>::max())) {
+    if (std::isfinite(d) && std::abs(d) > max_float) {
+      reader.errors().add(at, too_large(d));
+      ok = false;
+      continue;
+    }
+    if (!in_range(d, range)) {
       reader.errors().add(at, fmt::format("{} is out of range{}", d, describe_range(range)));
       ok = false;
       continue;

@@ -378,7 +378,7 @@ Result<Mesh> load_mesh(const std::filesystem::path& path, const LoadOptions& opt
     if (ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl") {
       std::optional<std::string> rewritten;
       if (ext == ".obj") {
-        if (auto ok = detail::check_obj_faces(path); !ok) return std::unexpected(ok.error());
+        if (auto ok = detail::check_obj(path); !ok) return std::unexpected(ok.error());
       } else if (ext == ".ply") {
         auto layout = detail::check_ply(path);
         if (!layout) return std::unexpected(layout.error());

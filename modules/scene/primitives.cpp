@@ -68,7 +68,7 @@ Result<Mesh> finish(Mesh mesh) {
   return mesh;
 }
 
-std::uint32_t clamp_count(std::uint32_t n, std::uint32_t lo) { return std::clamp<std::uint32_t>(n, lo, 4096); }
+std::uint32_t clamp_count(std::uint32_t n, std::uint32_t lo) { return std::clamp<std::uint32_t>(n, lo, max_primitive_count); }
 
 }  // namespace
 

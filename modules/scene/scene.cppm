@@ -121,7 +121,10 @@ void compute_curvature(Mesh& mesh);   // all four curvature arrays; see Mesh
 void normalize_to_unit_box(Mesh& mesh);
 
 // Procedural meshes with normals, UVs, tangents and curvature. Arguments must be finite and
-// positive (InvalidArgument otherwise); counts are clamped to [3, 4096] (plane: [1, 4096]).
+// positive (InvalidArgument otherwise); counts are clamped to [3, max_primitive_count]
+// (plane: [1, max_primitive_count]). The limit keeps a primitive near a million vertices,
+// which loads in seconds (4096 subdivisions made 16.8 million and took minutes).
+inline constexpr std::uint32_t max_primitive_count = 1024;
 // A UV sphere around the origin: `segments` around +Y, segments / 2 rings.
 [[nodiscard]] Result<Mesh> make_sphere(float radius = 1.0f, std::uint32_t segments = 64);
 // A square in the XZ plane at y = 0, facing +Y, `size` on a side, subdivisions^2 quads,
@@ -149,14 +152,26 @@ struct Camera {
   [[nodiscard]] mat4 projection(float aspect) const;
   [[nodiscard]] vec3 forward() const;
 };
-// InvalidArgument naming the field: non-finite values, fov outside (0, 180), near <= 0,
-// far <= near, position == target, up parallel to the view direction.
+// The largest output image side (scene files and `weft render --size`): 8192x8192 already
+// needs about 2 GB of images (float scene colour, depth, readback); 16384x16384 needed 5 GB.
+inline constexpr std::uint32_t max_output_side = 8192;
+// The vertical field of view a camera may have, in degrees: narrower ones overflow the
+// projection's precision (a fov of 1e-30 drew a quarter of the frame), wider ones are no
+// longer a perspective a rasteriser can draw.
+inline constexpr double min_fov_degrees = 0.01;
+inline constexpr double max_fov_degrees = 179.0;
+// InvalidArgument naming the field: non-finite values, fov outside [min_fov_degrees,
+// max_fov_degrees], near <= 0, far <= near, position == target, up parallel to the view direction.
 [[nodiscard]] Result<void> validate(const Camera& camera);
 // A camera that looks at `bounds` from the +Z side, slightly above, far enough to see all.
 [[nodiscard]] Camera camera_framing(const Bounds& bounds, float fov_y_degrees = 45.0f);
 
 // Units follow glTF's KHR_lights_punctual: directional intensity is illuminance (lux),
 // point and spot intensity is luminous intensity (candela). `color` is linear RGB.
+// The limits keep every shaded value finite in 32-bit floats (an intensity of 1e38
+// overflowed in the BRDF and drew black faces); the sun is about 1e5 lux.
+inline constexpr double max_light_intensity = 1e7;
+inline constexpr double max_light_color = 100.0;
 struct DirectionalLight {
   std::string name;
   vec3 direction{0.0f, -1.0f, 0.0f};  // the direction the light travels (from the light)
@@ -493,7 +508,7 @@ struct Welding {
 // A unit vector orthogonal to the unit vector n (+X for n = +Y).
 [[nodiscard]] vec3 any_orthogonal(const vec3& n);
 // Checks of a mesh file's grammar before OpenMesh reads it (file_checks.cpp): Parse errors.
-[[nodiscard]] Result<void> check_obj_faces(const std::filesystem::path& path);
+[[nodiscard]] Result<void> check_obj(const std::filesystem::path& path);
 // A PLY file checked against its grammar: its bytes, and where each element's header lines
 // and body data lie (byte offsets into `bytes`).
 struct PlyLayout {
@@ -526,6 +541,9 @@ struct PlyLayout {
 [[nodiscard]] Result<std::optional<std::string>> ply_strips_as_faces(const std::filesystem::path& path,
                                                                     const PlyLayout& layout);
 [[nodiscard]] Result<void> check_off(const std::filesystem::path& path);
+// A JSON text's nesting depth and repeated keys (json_checks.cpp): a Parse error naming
+// the JSON path; syntax errors are left to the reader that follows.
+[[nodiscard]] Result<void> check_json_structure(std::string_view text, std::size_t max_depth);
 // Curvature of a valid mesh with normals; returns how many faces OpenMesh refused as
 // non-manifold (left out of mean and Gaussian curvature).
 std::size_t compute_curvature_counting(Mesh& mesh);

@@ -30,7 +30,7 @@ constexpr Range non_negative{.min = 0.0};
 constexpr Range positive{.min = 0.0, .min_exclusive = true};
 constexpr Range unit{.min = 0.0, .max = 1.0};
 constexpr Range finite{};
-constexpr Range count_range(double lo) { return Range{.min = lo, .max = 4096.0}; }
+constexpr Range count_range(double lo) { return Range{.min = lo, .max = double(max_primitive_count)}; }
 
 // A unit direction, or an error when the array is all zeros.
 vec3 direction(JsonReader& r, std::string_view key, vec3 fallback) {
@@ -45,8 +45,8 @@ vec3 direction(JsonReader& r, std::string_view key, vec3 fallback) {
 
 Output read_output(JsonReader& r) {
   Output out;
-  out.width = static_cast<std::uint32_t>(r.integer("width", out.width, {.min = 1, .max = 16384}));
-  out.height = static_cast<std::uint32_t>(r.integer("height", out.height, {.min = 1, .max = 16384}));
+  out.width = static_cast<std::uint32_t>(r.integer("width", out.width, {.min = 1, .max = max_output_side}));
+  out.height = static_cast<std::uint32_t>(r.integer("height", out.height, {.min = 1, .max = max_output_side}));
   r.finish();
   return out;
 }
@@ -57,7 +57,7 @@ Camera read_camera(JsonReader& r) {
   c.position = r.vec3_of("position", c.position, finite);
   c.target = r.vec3_of("target", c.target, finite);
   c.up = r.vec3_of("up", c.up, finite);
-  c.fov_y_degrees = float(r.number("fov", c.fov_y_degrees, {.min = 0, .max = 180, .min_exclusive = true, .max_exclusive = true}));
+  c.fov_y_degrees = float(r.number("fov", c.fov_y_degrees, {.min = min_fov_degrees, .max = max_fov_degrees}));
   c.near = float(r.number("near", c.near, positive));
   c.far = float(r.number("far", c.far, positive));
   r.finish();
@@ -90,8 +90,8 @@ std::optional<Light> read_light(JsonReader& r, std::size_t index) {
   r.require("type");
   const std::string type = r.string("type", "", {"directional", "point", "spot"});
   const std::string name = r.string("name", fmt::format("light {}", index));
-  const vec3 color = r.vec3_of("color", vec3(1.0f), non_negative);
-  const float intensity = float(r.number("intensity", 1.0, non_negative));
+  const vec3 color = r.vec3_of("color", vec3(1.0f), {.min = 0.0, .max = max_light_color});
+  const float intensity = float(r.number("intensity", 1.0, {.min = 0.0, .max = max_light_intensity}));
   std::optional<Light> light;
   if (type == "directional") {
     light = DirectionalLight{name, direction(r, "direction", vec3(0.0f, -1.0f, 0.0f)), color, intensity};
@@ -253,6 +253,11 @@ std::string json_error_text(const std::exception& e) {
 
 Result<SceneDesc> parse_scene(std::string_view json_text, const std::filesystem::path& base_dir, std::string_view source) {
   try {
+    // Deeper than any scene needs; repeated keys are refused rather than the last one kept.
+    constexpr std::size_t max_scene_depth = 256;
+    if (auto ok = detail::check_json_structure(json_text, max_scene_depth); !ok) {
+      return fail(ErrorKind::Parse, "{}: {}", source, ok.error().message);
+    }
     nlohmann::json root;
     try {
       root = nlohmann::json::parse(json_text.begin(), json_text.end());

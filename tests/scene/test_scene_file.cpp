@@ -224,8 +224,8 @@ TEST_CASE("scene file: every problem of a file is reported at once, one per line
   const std::string& msg = r.error().message;
   const std::vector<std::string> expected = {
       "$.version: unsupported version 2",
-      "$.output.width: 0 is out of range [1, 16384]",
-      "$.camera.fov: 200 is out of range (0, 180)",
+      "$.output.width: 0 is out of range [1, 8192]",
+      "$.camera.fov: 200 is out of range [0.01, 179]",
       "$.camera.near: -1 is out of range: must be > 0",
       "$.environment.color: expected an array of 3 numbers, got an array of 2",
       "$.environment.intensity: -3 is out of range: must be >= 0",
