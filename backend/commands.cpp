@@ -228,6 +228,31 @@ void CommandEncoder::fill_buffer(const Buffer& buffer, std::uint32_t value, std:
   vkCmdFillBuffer(cmd_, buffer.buffer_, offset, n, value);
 }
 
+void CommandEncoder::blit_texture(const Texture& src, const Texture& dst, FilterMode filter) {
+  if (!check_outside_pass("blit_texture")) return;
+  auto bad = [&](std::string message) { report_error({ErrorKind::InvalidArgument, std::move(message)}); };
+  if (!has(src.usage(), TextureUsage::CopySrc))
+    return bad(weft::format("blit source '{}' lacks copy-src usage (has {})", src.label(), to_string(src.usage())));
+  if (!has(dst.usage(), TextureUsage::CopyDst))
+    return bad(weft::format("blit target '{}' lacks copy-dst usage (has {})", dst.label(), to_string(dst.usage())));
+  if (format_info(src.format()).depth || format_info(dst.format()).depth)
+    return bad(weft::format("blit from '{}' to '{}': depth textures cannot be blitted", src.label(), dst.label()));
+  VkImageBlit2 region{VK_STRUCTURE_TYPE_IMAGE_BLIT_2};
+  region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.srcOffsets[1] = {std::int32_t(src.size().width), std::int32_t(src.size().height), 1};
+  region.dstOffsets[1] = {std::int32_t(dst.size().width), std::int32_t(dst.size().height), 1};
+  VkBlitImageInfo2 info{VK_STRUCTURE_TYPE_BLIT_IMAGE_INFO_2};
+  info.srcImage = src.image_;
+  info.srcImageLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  info.dstImage = dst.image_;
+  info.dstImageLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  info.regionCount = 1;
+  info.pRegions = &region;
+  info.filter = filter == FilterMode::Linear ? VK_FILTER_LINEAR : VK_FILTER_NEAREST;
+  vkCmdBlitImage2(cmd_, &info);
+}
+
 void CommandEncoder::reset_query_set(const QuerySet& set) {
   if (!check_outside_pass("reset_query_set")) return;
   vkCmdResetQueryPool(cmd_, set.pool_, 0, set.count());
@@ -402,6 +427,16 @@ void RenderPassEncoder::set_viewport(float x, float y, float width, float height
   if (ended_) return;
   VkViewport viewport{x, y, width, height, 0.0f, 1.0f};
   vkCmdSetViewport(encoder_->cmd_, 0, 1, &viewport);
+}
+
+void RenderPassEncoder::set_scissor_rect(std::int32_t x, std::int32_t y, std::uint32_t width, std::uint32_t height) {
+  if (ended_) return;
+  // Vulkan rejects negative offsets; clamp to the attachment as wgpu requires of callers.
+  const std::int64_t x0 = std::clamp<std::int64_t>(x, 0, width_), y0 = std::clamp<std::int64_t>(y, 0, height_);
+  const std::int64_t x1 = std::clamp<std::int64_t>(std::int64_t(x) + width, x0, width_);
+  const std::int64_t y1 = std::clamp<std::int64_t>(std::int64_t(y) + height, y0, height_);
+  VkRect2D scissor{{std::int32_t(x0), std::int32_t(y0)}, {std::uint32_t(x1 - x0), std::uint32_t(y1 - y0)}};
+  vkCmdSetScissor(encoder_->cmd_, 0, 1, &scissor);
 }
 
 bool RenderPassEncoder::check_draw(std::string_view what) {

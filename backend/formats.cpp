@@ -101,6 +101,7 @@ std::string_view to_string(Access a) {
     case Access::DepthRead: return "depth-read";
     case Access::HostRead: return "host-read";
     case Access::HostWrite: return "host-write";
+    case Access::Present: return "present";
   }
   return "?";
 }
@@ -257,6 +258,9 @@ StageAccess stage_access(Access a, bool depth) {
     case Access::HostRead: return {VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT, VK_IMAGE_LAYOUT_GENERAL};
     case Access::HostWrite:
       return {VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_WRITE_BIT, VK_IMAGE_LAYOUT_GENERAL};
+    // The presentation engine reads it after the semaphore Surface::present signals; that
+    // signal waits for all earlier work, so the barrier needs no later stage.
+    case Access::Present: return {VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR};
   }
   return {VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT,
           VK_IMAGE_LAYOUT_GENERAL};

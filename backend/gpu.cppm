@@ -84,6 +84,7 @@ enum class Access : std::uint8_t {
   StorageRead, StorageWrite,  // storage image/buffer; StorageWrite covers read-write
   ColorAttachment, DepthAttachment, DepthRead,
   HostRead, HostWrite,
+  Present,         // a surface texture handed to the window system (Surface::present)
 };
 std::string_view to_string(Access access);
 constexpr bool is_write(Access a) {
@@ -136,6 +137,18 @@ struct InstanceDescriptor {
   std::string application_name = "weft";
   bool validation = false;              // VK_LAYER_KHRONOS_validation; also WEFT_VALIDATION=1
   bool synchronization_validation = false;
+  // Enables the window-system extensions (VK_KHR_surface, VK_KHR_xlib_surface) so that
+  // create_surface works; devices of such an instance enable VK_KHR_swapchain. Off by
+  // default: headless rendering needs no display.
+  bool presentation = false;
+};
+
+class Surface;
+// A window the platform layer owns, named by its native handles (X11 through Xlib: a
+// `Display*` and a `Window`), so that no windowing library reaches this module.
+struct NativeWindow {
+  void* x11_display = nullptr;
+  std::uint64_t x11_window = 0;
 };
 
 class Adapter;
@@ -156,6 +169,9 @@ class Instance {
 
   [[nodiscard]] std::vector<AdapterInfo> enumerate_adapters() const;
   Result<Adapter> request_adapter(const AdapterOptions& options = {}) const;
+  // A surface for `window` (needs InstanceDescriptor::presentation).
+  Result<Surface> create_surface(const NativeWindow& window) const;
+  [[nodiscard]] bool presentation_enabled() const;
 
   // Warnings and errors reported by the validation layer since the last call.
   [[nodiscard]] std::vector<std::string> take_validation_messages() const;
@@ -324,10 +340,12 @@ class Texture {
   std::unique_ptr<TextureView> default_view_;
   TextureDescriptor desc_;
   mutable Access state_ = Access::Undefined;
+  bool owns_image_ = true;  // false for a swapchain's images (the swapchain owns them)
   friend class Device;
   friend class Queue;
   friend class CommandEncoder;
   friend class RenderPassEncoder;
+  friend class Surface;
 };
 
 enum class FilterMode : std::uint8_t { Nearest, Linear };
@@ -650,6 +668,7 @@ class CommandBuffer {
   std::string label_;
   friend class CommandEncoder;
   friend class Queue;
+  friend class Surface;
 };
 
 class CommandEncoder;
@@ -669,6 +688,8 @@ class RenderPassEncoder {
   template <class T>
   void push(const T& value) { set_push_constants(std::as_bytes(std::span(&value, 1))); }
   void set_viewport(float x, float y, float width, float height);
+  // Draws only inside this rectangle (clamped to the attachment); the default is all of it.
+  void set_scissor_rect(std::int32_t x, std::int32_t y, std::uint32_t width, std::uint32_t height);
   void draw(std::uint32_t vertex_count, std::uint32_t instance_count = 1, std::uint32_t first_vertex = 0,
             std::uint32_t first_instance = 0);
   void draw_indexed(std::uint32_t index_count, std::uint32_t instance_count = 1, std::uint32_t first_index = 0,
@@ -741,6 +762,9 @@ class CommandEncoder {
   void copy_buffer_to_texture(const Buffer& src, std::uint64_t src_offset, const Texture& dst, std::uint32_t mip = 0);
   void copy_texture_to_buffer(const Texture& src, const Buffer& dst, std::uint64_t dst_offset, std::uint32_t mip = 0);
   void fill_buffer(const Buffer& buffer, std::uint32_t value, std::uint64_t offset = 0, std::uint64_t size = 0);
+  // Scales all of `src` (CopySrc state) onto all of `dst` (CopyDst state), converting the
+  // format (e.g. RGBA to a window's BGRA); linear or nearest filtering.
+  void blit_texture(const Texture& src, const Texture& dst, FilterMode filter = FilterMode::Linear);
 
   // Explicit barriers (what the graph emits), batched into one vkCmdPipelineBarrier2.
   void barrier(std::span<const TextureBarrier> textures, std::span<const BufferBarrier> buffers = {});
@@ -830,6 +854,63 @@ class Device {
   std::shared_ptr<detail::DeviceShared> shared_;
   Queue queue_;
   friend class Adapter;
+  friend class Surface;
+};
+
+// ---- presentation ----------------------------------------------------------------------
+// wgpu's shape: configure(device, size, format, present mode), get_current_texture(),
+// present(). The texture is an ordinary Texture (import it into a frame's graph and mark it
+// an output in Access::Present); present() hands it to the window system.
+enum class PresentMode : std::uint8_t { Fifo, Mailbox, Immediate };
+std::string_view to_string(PresentMode mode);
+
+struct SurfaceConfiguration {
+  Format format = Format::BGRA8Unorm;
+  TextureUsage usage = TextureUsage::ColorAttachment | TextureUsage::CopyDst | TextureUsage::CopySrc;
+  std::uint32_t width = 0, height = 0;
+  PresentMode present_mode = PresentMode::Fifo;  // falls back to Fifo where not supported
+};
+
+enum class SurfaceStatus : std::uint8_t {
+  Good,
+  Reconfigured,  // the window's size changed: the swapchain was remade at the new size
+  Minimized,     // the window has no area (0x0): there is nothing to draw this frame
+};
+
+struct SurfaceTexture {
+  const Texture* texture = nullptr;  // null when Minimized
+  SurfaceStatus status = SurfaceStatus::Good;
+};
+
+struct SurfaceCapabilities {
+  std::vector<Format> formats;            // the ones weft::gpu names
+  std::vector<PresentMode> present_modes;
+  TextureUsage usages = TextureUsage::None;
+};
+
+class Surface {
+ public:
+  Surface(Surface&&) noexcept;
+  Surface& operator=(Surface&&) noexcept;
+  ~Surface();
+  // What this surface can do with `device`'s adapter; an error when its queue cannot present.
+  Result<SurfaceCapabilities> capabilities(const Device& device) const;
+  // (Re)creates the swapchain; a 0x0 size is allowed (a minimised window: nothing is made).
+  Result<void> configure(Device& device, const SurfaceConfiguration& config);
+  [[nodiscard]] const SurfaceConfiguration& configuration() const { return config_; }
+  // The next texture to draw into. Out-of-date and suboptimal swapchains are remade at the
+  // window's current size (status Reconfigured); a minimised window gives no texture.
+  Result<SurfaceTexture> get_current_texture();
+  // Shows the texture from get_current_texture(), moving it to Access::Present first when
+  // the frame did not (e.g. it failed before drawing).
+  Result<void> present();
+
+ private:
+  Surface() = default;
+  struct State;
+  std::unique_ptr<State> state_;
+  SurfaceConfiguration config_;
+  friend class Instance;
 };
 
 }  // namespace weft::gpu
@@ -844,6 +925,7 @@ struct InstanceShared {
   VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
   bool validation = false;
   bool debug_utils = false;
+  bool presentation = false;  // VK_KHR_surface and the platform's surface extension are on
   std::shared_ptr<MessageLog> log;
   ~InstanceShared();
 };
@@ -867,6 +949,7 @@ struct DeviceShared {
   VkPhysicalDeviceMemoryProperties memory_properties{};
   AdapterInfo info;
   std::uint64_t allocated_bytes = 0;
+  bool swapchain = false;  // VK_KHR_swapchain is enabled
   struct Pending {
     VkFence fence;
     VkCommandBuffer cmd;

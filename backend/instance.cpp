@@ -148,6 +148,14 @@ Result<Instance> Instance::create(const InstanceDescriptor& desc) {
   std::vector<const char*> extensions;
   if (want_validation) layers.push_back(validation_layer);
   if (shared->debug_utils) extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  if (desc.presentation) {
+    for (const char* name : {"VK_KHR_surface", "VK_KHR_xlib_surface"}) {
+      if (!extension_available(name))
+        return fail(ErrorKind::Unsupported, "presentation needs the Vulkan instance extension {}, which no installed "
+                                            "driver offers (headless rendering does not need it)", name);
+      extensions.push_back(name);
+    }
+  }
 
   VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
   app.pApplicationName = desc.application_name.c_str();
@@ -170,6 +178,7 @@ Result<Instance> Instance::create(const InstanceDescriptor& desc) {
   if (VkResult r = vkCreateInstance(&info, nullptr, &shared->instance); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, "vkCreateInstance"));
   shared->validation = want_validation;
+  shared->presentation = desc.presentation;
 
   if (want_validation && shared->debug_utils) {
     VkDebugUtilsMessengerCreateInfoEXT m{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
@@ -191,6 +200,7 @@ Instance& Instance::operator=(Instance&&) noexcept = default;
 Instance::~Instance() = default;
 
 bool Instance::validation_enabled() const { return shared_->validation; }
+bool Instance::presentation_enabled() const { return shared_->presentation; }
 
 std::vector<std::string> Instance::take_validation_messages() const {
   std::lock_guard lock(shared_->log->mutex);
@@ -295,12 +305,28 @@ Result<Device> Adapter::request_device(const DeviceDescriptor& desc) const {
   VkDeviceCreateInfo info{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO, &enabled};
   info.queueCreateInfoCount = 1;
   info.pQueueCreateInfos = &queue_info;
+  // A presenting instance's devices can make swapchains, where the adapter offers them.
+  const char* swapchain_extension = "VK_KHR_swapchain";
+  bool swapchain = false;
+  if (shared_->presentation) {
+    std::uint32_t count = 0;
+    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &count, nullptr);
+    std::vector<VkExtensionProperties> exts(count);
+    vkEnumerateDeviceExtensionProperties(physical_, nullptr, &count, exts.data());
+    swapchain = std::any_of(exts.begin(), exts.end(),
+                            [&](auto& e) { return std::strcmp(e.extensionName, swapchain_extension) == 0; });
+  }
+  if (swapchain) {
+    info.enabledExtensionCount = 1;
+    info.ppEnabledExtensionNames = &swapchain_extension;
+  }
 
   auto shared = std::make_shared<DeviceShared>();
   shared->instance = shared_;
   shared->physical = physical_;
   shared->info = info_;
   shared->queue_family = *family;
+  shared->swapchain = swapchain;
   if (VkResult r = vkCreateDevice(physical_, &info, nullptr, &shared->device); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("vkCreateDevice on '{}'", info_.name)));
   vkGetDeviceQueue(shared->device, *family, 0, &shared->queue);

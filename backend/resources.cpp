@@ -395,7 +395,8 @@ Texture::Texture(Texture&& o) noexcept
       allocation_(std::move(o.allocation_)),
       default_view_(std::move(o.default_view_)),
       desc_(std::move(o.desc_)),
-      state_(o.state_) {
+      state_(o.state_),
+      owns_image_(o.owns_image_) {
   fix_view_back_pointer();
 }
 Texture& Texture::operator=(Texture&& o) noexcept {
@@ -405,13 +406,14 @@ Texture& Texture::operator=(Texture&& o) noexcept {
   std::swap(default_view_, o.default_view_);
   std::swap(desc_, o.desc_);
   std::swap(state_, o.state_);
+  std::swap(owns_image_, o.owns_image_);
   fix_view_back_pointer();
   o.fix_view_back_pointer();
   return *this;
 }
 Texture::~Texture() {
   default_view_.reset();
-  if (device_ && image_) vkDestroyImage(device_->device, image_, nullptr);
+  if (device_ && image_ && owns_image_) vkDestroyImage(device_->device, image_, nullptr);
 }
 
 TextureView::TextureView(TextureView&&) noexcept = default;

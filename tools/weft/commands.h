@@ -14,4 +14,5 @@ Command add_bake(CLI::App& app);  // bake.cpp: `weft bake <asset>`
 // bake_btf.cpp: `weft bake btf` (its sub-command of `bake` and what runs it).
 std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake);
 Command add_tradeoff(CLI::App& app);  // tradeoff.cpp: `weft tradeoff SCENE --feature F`
+Command add_view(CLI::App& app);      // view.cpp: `weft view SCENE` (the live viewer)
 }  // namespace weft::cli

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   add(weft::cli::add_graph);
   add(weft::cli::add_bake);
   add(weft::cli::add_tradeoff);
+  add(weft::cli::add_view);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

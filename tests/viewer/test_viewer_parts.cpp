@@ -1,0 +1,101 @@
+// weft.viewer's parts that need no window: the orbit camera and the script reader.
+#include <doctest/doctest.h>
+#include <cmath>
+#include <string>
+#include <vector>
+#include <glm/glm.hpp>
+import weft.core;
+import weft.viewer;
+
+using weft::viewer::CameraPose;
+using weft::viewer::OrbitCamera;
+
+namespace {
+bool near(glm::vec3 a, glm::vec3 b, float eps = 1e-4f) { return glm::length(a - b) < eps; }
+const CameraPose start{{2.6f, 1.5f, 3.4f}, {0.0f, 0.55f, 0.0f}};
+}  // namespace
+
+TEST_CASE("orbit camera starts at the scene's camera and comes back after a full turn") {
+  OrbitCamera camera(start);
+  CHECK(near(camera.pose().position, start.position));
+  CHECK(near(camera.pose().target, start.target));
+  const float distance = glm::length(start.position - start.target);
+  for (int i = 0; i < 36; ++i) camera.orbit(10.0f, 0.0f);
+  CHECK(near(camera.pose().position, start.position, 1e-3f));
+  // Orbiting keeps the distance to the target.
+  camera.orbit(33.0f, 20.0f);
+  CHECK(glm::length(camera.pose().position - camera.pose().target) == doctest::Approx(distance).epsilon(1e-5));
+}
+
+TEST_CASE("orbit camera: pitch stops short of the poles, so the view never flips") {
+  OrbitCamera camera(start);
+  camera.orbit(0.0f, 500.0f);
+  const glm::vec3 offset = camera.pose().position - camera.pose().target;
+  const float elevation = glm::degrees(std::asin(offset.y / glm::length(offset)));
+  CHECK(elevation == doctest::Approx(89.0f).epsilon(1e-4));
+  camera.orbit(0.0f, -1000.0f);
+  const glm::vec3 below = camera.pose().position - camera.pose().target;
+  CHECK(glm::degrees(std::asin(below.y / glm::length(below))) == doctest::Approx(-89.0f).epsilon(1e-4));
+}
+
+TEST_CASE("orbit camera: zoom scales the distance, pan moves across the view, fly keeps the distance") {
+  OrbitCamera camera(start);
+  const float d = camera.distance();
+  camera.zoom(0.5f);
+  CHECK(camera.distance() == doctest::Approx(d * 0.5f));
+  camera.zoom(0.0f);  // ignored: not > 0
+  camera.zoom(NAN);   // ignored: not finite
+  CHECK(camera.distance() == doctest::Approx(d * 0.5f));
+  for (int i = 0; i < 100; ++i) camera.zoom(1e-3f);
+  CHECK(camera.distance() > 0.0f);  // clamped away from zero, the pose stays defined
+  CHECK(std::isfinite(camera.pose().position.x));
+
+  OrbitCamera panned(start);
+  const glm::vec3 view = glm::normalize(start.target - start.position);
+  panned.pan(0.1f, 0.05f);
+  const glm::vec3 moved = panned.pose().target - start.target;
+  CHECK(glm::length(moved) > 0.0f);
+  CHECK(std::abs(glm::dot(glm::normalize(moved), view)) < 1e-4f);  // across the view, not along it
+  CHECK(near(panned.pose().position - panned.pose().target, start.position - start.target));
+
+  OrbitCamera flown(start);
+  flown.fly(0.25f, 0.0f, 0.0f);
+  CHECK(near(flown.pose().target - start.target, view * 0.25f * d, 1e-4f));
+  CHECK(glm::length(flown.pose().position - flown.pose().target) == doctest::Approx(d));
+  flown.reset();
+  CHECK(near(flown.pose().position, start.position));
+}
+
+TEST_CASE("a script is read whole: commands, comments, blank lines") {
+  auto script = weft::viewer::parse_script("s.txt",
+                                           "# a session\n"
+                                           "orbit 10 -5\n"
+                                           "\n"
+                                           "knob skin lut.size 32   # a comment after a command\n"
+                                           "knob skin lut.range \"full\"\n"
+                                           "resize 64 48\n"
+                                           "screenshot out.png\n"
+                                           "quit\n");
+  REQUIRE(script);
+  REQUIRE(script->commands.size() == 6);
+  CHECK(script->commands[0].name == "orbit");
+  CHECK(script->commands[0].args == std::vector<std::string>{"10", "-5"});
+  CHECK(script->commands[1].line == 4);
+  CHECK(script->commands[2].args[2] == "\"full\"");
+}
+
+TEST_CASE("a bad script line is an error naming the file, the line and the fault") {
+  auto error_of = [](const std::string& text) {
+    auto script = weft::viewer::parse_script("session.txt", text);
+    REQUIRE_FALSE(script);
+    return script.error().message;
+  };
+  CHECK(error_of("orbit 1 2\norbitt 1 2\n").starts_with("session.txt:2: unknown command 'orbitt' (known: "));
+  CHECK(error_of("zoom\n") == "session.txt:1: 'zoom' takes 1 argument(s): zoom FACTOR");
+  CHECK(error_of("pan 1 up\n") == "session.txt:1: 'pan' expects numbers, got 'up': pan RIGHT UP");
+  CHECK(error_of("zoom -2\n") == "session.txt:1: zoom factor must be > 0");
+  CHECK(error_of("resize 0 10\n") == "session.txt:1: resize needs sizes within 1..16384");
+  CHECK(error_of("ui maybe\n") == "session.txt:1: ui takes on or off");
+  CHECK(error_of("knob skin lut.range full\n") ==
+        "session.txt:1: knob value 'full' is not JSON (numbers, true/false, or \"quoted\" text)");
+}

@@ -1,0 +1,48 @@
+// `weft view SCENE.json [--size WxH] [--quality q] [--script FILE]`: the live viewer
+// (tools/weft/view/, built when GLFW and Dear ImGui are installed).
+#include <cstdio>
+#include <memory>
+#include <string>
+#include "commands.h"
+#ifdef WEFT_HAVE_VIEWER
+import weft.viewer;
+#endif
+
+namespace weft::cli {
+
+Command add_view(CLI::App& app) {
+  auto* sub = app.add_subcommand("view", "Open a scene in a window: camera, knobs, per-pass times, hot reload");
+  struct Options {
+    std::string scene, size = "1280x720", quality = "medium", script;
+    double motion_budget_ms = 100.0;
+  };
+  auto o = std::make_shared<Options>();
+  sub->add_option("scene", o->scene, "Scene file (.json, or a .gltf/.glb); edits to it are reloaded live")->required();
+  sub->add_option("-s,--size", o->size, "Window size WxH")->capture_default_str();
+  sub->add_option("-q,--quality", o->quality, "low | medium | high | reference")->capture_default_str();
+  sub->add_option("--script", o->script, "Run a scripted session (see docs/viewer.md) and quit at its end");
+  sub->add_option("--motion-budget-ms", o->motion_budget_ms,
+                  "Scene frames while the camera moves aim at this time (lower resolution)")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 100000.0));
+  return [o] {
+#ifdef WEFT_HAVE_VIEWER
+    unsigned w = 0, h = 0;
+    char extra = 0;
+    if (std::sscanf(o->size.c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0 || w > 16384 || h > 16384) {
+      std::fprintf(stderr, "weft view: --size expects WxH within 1..16384 (e.g. 1280x720), got '%s'\n", o->size.c_str());
+      return 1;
+    }
+    viewer::ViewOptions options{.scene = o->scene, .width = w, .height = h, .quality = o->quality,
+                                .motion_budget_ms = o->motion_budget_ms};
+    if (!o->script.empty()) options.script = o->script;
+    return viewer::run(options);
+#else
+    std::fprintf(stderr, "weft view: this weft was built without the viewer (install libglfw3-dev and libimgui-dev, "
+                         "then rebuild); to render without a window: weft render %s -o out.png\n", o->scene.c_str());
+    return 2;
+#endif
+  };
+}
+
+}  // namespace weft::cli

@@ -1,0 +1,192 @@
+// The viewer's panels (Dear ImGui): scene objects and materials with their feature knobs,
+// the quality preset, per-pass times, transient memory, the compiled graph and messages.
+module;
+#include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <vector>
+#include <imgui.h>
+#include <nlohmann/json.hpp>
+module weft.viewer;
+import weft.core;
+import weft.graph;
+import weft.scene;
+import weft.renderer;
+
+namespace weft::viewer::detail {
+
+namespace {
+
+// The value of `field` ("lut.size" descends) in a material's params, or null.
+const nlohmann::json* knob_value(const nlohmann::json& params, const std::string& field) {
+  const nlohmann::json* at = &params;
+  std::size_t start = 0;
+  while (true) {
+    const auto dot = field.find('.', start);
+    const std::string part = field.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+    if (!at->is_object() || !at->contains(part)) return nullptr;
+    at = &(*at)[part];
+    if (dot == std::string::npos) return at;
+    start = dot + 1;
+  }
+}
+
+void knob_widgets(Session& s, std::size_t material_index) {
+  const auto& material = s.scene.materials[material_index];
+  const auto knobs = knobs_for(material, s.quality);
+  if (knobs.empty()) {
+    ImGui::TextDisabled("no knobs");
+    return;
+  }
+  for (const auto& knob : knobs) {
+    const nlohmann::json* set = knob_value(material.params, knob.name);
+    const nlohmann::json* current = set ? set : &knob.preset;
+    const std::string id = knob.name + "##" + material.name;
+    switch (knob.kind) {
+      case KnobKind::Integer: {
+        int v = current && current->is_number() ? current->get<int>() : int(knob.min);
+        if (ImGui::SliderInt(id.c_str(), &v, int(knob.min), int(knob.max), "%d", ImGuiSliderFlags_AlwaysClamp))
+          s.set_knob(material_index, knob.name, v);
+        break;
+      }
+      case KnobKind::Number: {
+        float v = current && current->is_number() ? current->get<float>() : float(knob.min);
+        if (ImGui::SliderFloat(id.c_str(), &v, float(knob.min), float(knob.max), "%.3f", ImGuiSliderFlags_AlwaysClamp))
+          s.set_knob(material_index, knob.name, v);
+        break;
+      }
+      case KnobKind::Boolean: {
+        bool v = current && current->is_boolean() ? current->get<bool>() : false;
+        if (ImGui::Checkbox(id.c_str(), &v)) s.set_knob(material_index, knob.name, v);
+        break;
+      }
+      case KnobKind::Choice: {
+        const std::string v = current && current->is_string() ? current->get<std::string>()
+                                                              : (knob.choices.empty() ? "" : knob.choices.front());
+        if (ImGui::BeginCombo(id.c_str(), v.c_str())) {
+          for (const auto& choice : knob.choices)
+            if (ImGui::Selectable(choice.c_str(), choice == v)) s.set_knob(material_index, knob.name, choice);
+          ImGui::EndCombo();
+        }
+        break;
+      }
+    }
+    if (ImGui::IsItemHovered() && !knob.meaning.empty()) ImGui::SetTooltip("%s", knob.meaning.c_str());
+  }
+  if (!material.params.empty() && ImGui::SmallButton(("preset values##" + material.name).c_str())) {
+    s.scene.materials[material_index].params = nlohmann::json::object();  // the preset decides every knob
+    s.dirty = true;
+    s.graph.reset();
+  }
+}
+
+void scene_panel(Session& s) {
+  if (!ImGui::CollapsingHeader("Scene", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  ImGui::Text("%s", s.options.scene.string().c_str());
+  static const char* presets[] = {"low", "medium", "high", "reference"};
+  int q = int(s.quality);
+  if (ImGui::Combo("quality", &q, presets, 4)) {
+    s.quality = Quality(q);
+    s.dirty = true;
+    s.graph.reset();
+  }
+  if (ImGui::TreeNode("objects", "objects (%zu)", s.scene.objects.size())) {
+    for (const auto& object : s.scene.objects)
+      ImGui::BulletText("%s: %s", object.name.c_str(), s.scene.materials.at(object.material).name.c_str());
+    ImGui::TreePop();
+  }
+  for (std::size_t i = 0; i < s.scene.materials.size(); ++i) {
+    auto& material = s.scene.materials[i];
+    const std::string label = material.name + " (" + material_type_name(material) + ")";
+    if (!ImGui::TreeNode(label.c_str())) continue;
+    if (is_standard(material)) {
+      auto& m = material.standard;
+      bool changed = ImGui::ColorEdit3(("base colour##" + material.name).c_str(), &m.base_color.x);
+      changed |= ImGui::SliderFloat(("metallic##" + material.name).c_str(), &m.metallic, 0.0f, 1.0f);
+      changed |= ImGui::SliderFloat(("roughness##" + material.name).c_str(), &m.roughness, 0.0f, 1.0f);
+      if (changed) s.dirty = true;
+    } else {
+      knob_widgets(s, i);
+    }
+    ImGui::TreePop();
+  }
+}
+
+void timing_panel(Session& s) {
+  if (!ImGui::CollapsingHeader("Timings", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  ImGui::Text("UI %.1f fps | scene frame %.0f ms at %ux%u%s", s.ui_fps, s.last_render_ms, s.rendered_w, s.rendered_h,
+              s.refined ? " (refined)" : " (moving: lower resolution)");
+  if (s.last_refine_ms >= 0) ImGui::Text("time to refined image after the camera stopped: %.0f ms", s.last_refine_ms);
+  if (!s.frame_ms_history.empty())
+    ImGui::PlotLines("scene ms", s.frame_ms_history.data(), int(s.frame_ms_history.size()), 0, nullptr, 0.0f,
+                     FLT_MAX, ImVec2(0, 40));
+  if (!s.ui_ms_history.empty())
+    ImGui::PlotLines("UI ms", s.ui_ms_history.data(), int(s.ui_ms_history.size()), 0, nullptr, 0.0f, FLT_MAX,
+                     ImVec2(0, 40));
+  if (ImGui::BeginTable("passes", 3, ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingStretchProp)) {
+    ImGui::TableSetupColumn("pass");
+    ImGui::TableSetupColumn("GPU ms");
+    ImGui::TableSetupColumn("CPU us");
+    ImGui::TableHeadersRow();
+    for (const auto& p : s.stats.passes) {
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(p.name.c_str());
+      ImGui::TableNextColumn();
+      if (p.gpu_ms >= 0) ImGui::Text("%.2f", p.gpu_ms); else ImGui::TextDisabled("-");
+      ImGui::TableNextColumn();
+      ImGui::Text("%.0f", p.cpu_record_us);
+    }
+    ImGui::EndTable();
+  }
+  ImGui::Text("GPU total %.2f ms, CPU frame %.2f ms", s.stats.gpu_total_ms, s.stats.cpu_frame_ms);
+  ImGui::Text("transient memory: %.1f MiB aliased, %.1f MiB without aliasing",
+              double(s.stats.transient_bytes) / (1 << 20), double(s.stats.transient_bytes_unaliased) / (1 << 20));
+}
+
+void graph_panel(Session& s) {
+  if (!ImGui::CollapsingHeader("Graph")) return;
+  if (!s.graph) {
+    ImGui::TextDisabled("compiled when the camera stops");
+    return;
+  }
+  ImGui::Text("passes in order:");
+  for (std::size_t i = 0; i < s.graph->passes.size(); ++i) ImGui::BulletText("%zu %s", i, s.graph->passes[i].c_str());
+  ImGui::Text("culled: %s", s.graph->culled_passes.empty() ? "(none)" : "");
+  for (const auto& p : s.graph->culled_passes) ImGui::BulletText("%s", p.c_str());
+  if (ImGui::TreeNode("resources, lifetimes, memory, barriers")) {
+    ImGui::TextUnformatted(s.graph->dump.c_str());
+    ImGui::TreePop();
+  }
+}
+
+void messages_panel(Session& s) {
+  const std::size_t validation = s.instance->validation_enabled() ? s.instance->validation_message_count() : 0;
+  const bool open = !s.error.empty() || !s.warnings.empty() || validation > 0;
+  if (!ImGui::CollapsingHeader("Messages", open ? ImGuiTreeNodeFlags_DefaultOpen : 0)) return;
+  if (!s.error.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", s.error.c_str());
+  for (const auto& w : s.warnings) ImGui::TextWrapped("warning: %s", w.c_str());
+  for (const auto& w : s.scene.warnings) ImGui::TextWrapped("scene: %s", w.c_str());
+  if (s.instance->validation_enabled()) ImGui::Text("validation messages: %zu", validation);
+  if (s.error.empty() && s.warnings.empty() && s.scene.warnings.empty()) ImGui::TextDisabled("none");
+}
+
+}  // namespace
+
+void Session::draw_ui() {
+  if (!show_ui) return;
+  ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(380, 0), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowBgAlpha(0.85f);
+  ImGui::Begin("weft view");
+  if (!error.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", error.c_str());
+  ImGui::TextDisabled("drag: orbit | right drag: pan | wheel: zoom | WASDQE: fly | R reset | H UI | P screenshot");
+  scene_panel(*this);
+  timing_panel(*this);
+  graph_panel(*this);
+  messages_panel(*this);
+  ImGui::End();
+}
+
+}  // namespace weft::viewer::detail

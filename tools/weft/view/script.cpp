@@ -1,0 +1,86 @@
+// Reads `weft view --script FILE`: every line is checked before the session starts, so a
+// typo on line 40 does not surface after a minute of rendering.
+module;
+#include <charconv>
+#include <expected>
+#include <filesystem>
+#include <map>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <vector>
+#include <nlohmann/json.hpp>
+module weft.viewer;
+import weft.core;
+
+namespace weft::viewer {
+
+namespace {
+struct Arity {
+  std::size_t min, max;
+  const char* usage;
+};
+const std::map<std::string, Arity, std::less<>>& commands() {
+  static const std::map<std::string, Arity, std::less<>> table = {
+      {"orbit", {2, 2, "orbit DYAW DPITCH"}},   {"pan", {2, 2, "pan RIGHT UP"}},
+      {"zoom", {1, 1, "zoom FACTOR"}},          {"fly", {3, 3, "fly FORWARD RIGHT UP"}},
+      {"reset", {0, 0, "reset"}},               {"knob", {3, 3, "knob MATERIAL FIELD VALUE"}},
+      {"quality", {1, 1, "quality PRESET"}},    {"ui", {1, 1, "ui on|off"}},
+      {"resize", {2, 2, "resize W H"}},         {"minimize", {0, 0, "minimize"}},
+      {"restore", {0, 0, "restore"}},           {"wait", {1, 1, "wait FRAMES"}},
+      {"refine", {0, 0, "refine"}},             {"screenshot", {1, 1, "screenshot PATH"}},
+      {"copy", {2, 2, "copy FROM TO"}},         {"quit", {0, 0, "quit"}},
+  };
+  return table;
+}
+
+bool is_number(const std::string& s) {
+  float v = 0;
+  auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  return ec == std::errc() && end == s.data() + s.size();
+}
+}  // namespace
+
+Result<Script> parse_script(const std::filesystem::path& path, const std::string& text) {
+  Script script{path, {}};
+  std::istringstream in(text);
+  std::string line;
+  int number = 0;
+  auto bad = [&](const std::string& why) -> Result<Script> {
+    return fail(ErrorKind::Parse, "{}:{}: {}", path.string(), number, why);
+  };
+  while (std::getline(in, line)) {
+    ++number;
+    if (auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
+    std::istringstream words(line);
+    ScriptCommand command{{}, {}, number};
+    if (!(words >> command.name)) continue;
+    for (std::string w; words >> w;) command.args.push_back(w);
+    auto it = commands().find(command.name);
+    if (it == commands().end()) {
+      std::string known;
+      for (const auto& [name, _] : commands()) known += (known.empty() ? "" : ", ") + name;
+      return bad("unknown command '" + command.name + "' (known: " + known + ")");
+    }
+    const Arity& a = it->second;
+    if (command.args.size() < a.min || command.args.size() > a.max)
+      return bad("'" + command.name + "' takes " + std::to_string(a.min) +
+                 (a.max != a.min ? "+" : "") + " argument(s): " + a.usage);
+    const std::string& n = command.name;
+    const bool numeric = n == "orbit" || n == "pan" || n == "zoom" || n == "fly" || n == "resize" || n == "wait";
+    if (numeric)
+      for (const auto& arg : command.args)
+        if (!is_number(arg)) return bad("'" + n + "' expects numbers, got '" + arg + "': " + a.usage);
+    if (n == "zoom" && std::stof(command.args[0]) <= 0.0f) return bad("zoom factor must be > 0");
+    if (n == "resize" && (std::stoi(command.args[0]) < 1 || std::stoi(command.args[1]) < 1 ||
+                          std::stoi(command.args[0]) > 16384 || std::stoi(command.args[1]) > 16384))
+      return bad("resize needs sizes within 1..16384");
+    if (n == "ui" && command.args[0] != "on" && command.args[0] != "off") return bad("ui takes on or off");
+    if (n == "knob" && !nlohmann::json::accept(command.args[2]))
+      return bad("knob value '" + command.args[2] + "' is not JSON (numbers, true/false, or \"quoted\" text)");
+    script.commands.push_back(std::move(command));
+  }
+  return script;
+}
+
+}  // namespace weft::viewer

@@ -1,0 +1,541 @@
+// The viewer's loop: input and script -> camera and knobs -> (when something changed) a scene
+// frame through weft.renderer -> a present graph that blits the last scene image into the
+// window's texture and draws the UI over it -> present. Scene frames are skipped while
+// nothing changes, made smaller while the camera moves, and refined once it stops.
+module;
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <expected>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <span>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+#include <glm/glm.hpp>
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <backends/imgui_impl_glfw.h>
+#include <nlohmann/json.hpp>
+module weft.viewer;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.image;
+import weft.scene;
+import weft.renderer;
+
+namespace weft::viewer {
+using namespace detail;
+
+namespace {
+
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+std::string glfw_error_text;
+void on_glfw_error(int, const char* description) { glfw_error_text = description ? description : "unknown"; }
+
+int no_window(const std::string& why, const std::filesystem::path& scene) {
+  std::fprintf(stderr, "weft view: %s; to render without a window: weft render %s -o out.png\n", why.c_str(),
+               scene.string().c_str());
+  return 2;
+}
+
+std::optional<std::filesystem::file_time_type> modified_time(const std::filesystem::path& path) {
+  std::error_code ec;
+  auto t = std::filesystem::last_write_time(path, ec);
+  if (ec) return std::nullopt;
+  return t;
+}
+
+}  // namespace
+
+Session::~Session() {
+  if (device) (void)device->queue().wait_idle();
+  present_graph.reset();
+  ui.reset();
+  if (ImGui::GetCurrentContext()) {
+    ImGui_ImplGlfw_Shutdown();
+    ImGui::DestroyContext();
+  }
+  last_frame.reset();
+  renderer.reset();
+  surface.reset();
+  device.reset();
+  adapter.reset();
+  instance.reset();
+  if (window) glfwDestroyWindow(window);
+  glfwTerminate();
+}
+
+Result<void> Session::load(bool first) {
+  auto loaded = scene::load_scene(options.scene);
+  scene_time = modified_time(options.scene);
+  if (!loaded) return std::unexpected(loaded.error());
+  const bool camera_changed = first || loaded->camera.position != file_camera.position ||
+                              loaded->camera.target != file_camera.target;
+  file_camera = loaded->camera;
+  scene = std::move(*loaded);
+  if (camera_changed) camera.emplace(CameraPose{scene.camera.position, scene.camera.target});
+  dirty = true;
+  graph.reset();
+  return {};
+}
+
+void Session::poll_reload() {
+  const auto now = modified_time(options.scene);
+  if (!now || now == scene_time) return;
+  if (auto ok = load(false); !ok) {
+    error = weft::format("reload of {} failed: {}", options.scene.string(), ok.error().what());
+    log::warn(error);
+    return;  // the last good scene and frame stay
+  }
+  error.clear();
+  log::info(weft::format("reloaded {}", options.scene.string()));
+}
+
+Result<void> Session::open() {
+  if (auto q = renderer::quality_from_string(options.quality); q)
+    quality = *q;
+  else
+    return std::unexpected(q.error());
+  if (options.script) {
+    std::ifstream in(*options.script);
+    if (!in) return fail(ErrorKind::Io, "cannot read script '{}'", options.script->string());
+    std::stringstream text;
+    text << in.rdbuf();
+    auto parsed = parse_script(*options.script, text.str());
+    if (!parsed) return std::unexpected(parsed.error());
+    script = std::move(*parsed);
+  }
+  return load(true);
+}
+
+void Session::set_knob(std::size_t material, const std::string& field, const nlohmann::json& value) {
+  // "lut.size" descends into objects, as the knob tables name fields.
+  nlohmann::json* at = &scene.materials.at(material).params;
+  std::string rest = field;
+  for (auto dot = rest.find('.'); dot != std::string::npos; dot = rest.find('.')) {
+    at = &(*at)[rest.substr(0, dot)];
+    rest.erase(0, dot + 1);
+  }
+  (*at)[rest] = value;
+  dirty = true;
+  graph.reset();
+}
+
+void Session::handle_input(double dt) {
+  ImGuiIO& io = ImGui::GetIO();
+  bool moved = false;
+  static double last_x = 0, last_y = 0;
+  double x = 0, y = 0;
+  glfwGetCursorPos(window, &x, &y);
+  const double dx = x - last_x, dy = y - last_y;
+  last_x = x;
+  last_y = y;
+  if (!io.WantCaptureMouse) {
+    if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS && (dx != 0 || dy != 0)) {
+      camera->orbit(float(-dx) * 0.3f, float(dy) * 0.3f);
+      moved = true;
+    }
+    if ((glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS ||
+         glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS) &&
+        (dx != 0 || dy != 0)) {
+      camera->pan(float(-dx) * 0.002f, float(dy) * 0.002f);
+      moved = true;
+    }
+    if (io.MouseWheel != 0.0f) {
+      camera->zoom(std::pow(0.9f, io.MouseWheel));
+      moved = true;
+    }
+  }
+  if (!io.WantCaptureKeyboard) {
+    const float step = float(dt) * 0.8f;
+    auto key = [&](int k) { return glfwGetKey(window, k) == GLFW_PRESS; };
+    const float f = (key(GLFW_KEY_W) ? step : 0.0f) - (key(GLFW_KEY_S) ? step : 0.0f);
+    const float r = (key(GLFW_KEY_D) ? step : 0.0f) - (key(GLFW_KEY_A) ? step : 0.0f);
+    const float u = (key(GLFW_KEY_E) ? step : 0.0f) - (key(GLFW_KEY_Q) ? step : 0.0f);
+    if (f != 0 || r != 0 || u != 0) {
+      camera->fly(f, r, u);
+      moved = true;
+    }
+    if (ImGui::IsKeyPressed(GLFW_KEY_R, false)) {
+      camera->reset();
+      moved = true;
+    }
+    if (ImGui::IsKeyPressed(GLFW_KEY_H, false) || ImGui::IsKeyPressed(GLFW_KEY_F1, false)) show_ui = !show_ui;
+    if (ImGui::IsKeyPressed(GLFW_KEY_P, false) || ImGui::IsKeyPressed(GLFW_KEY_F12, false))
+      screenshot = weft::format("weft-view-{}.png", screenshots_taken + 1);
+    if (ImGui::IsKeyPressed(GLFW_KEY_ESCAPE, false)) quit = true;
+  }
+  if (moved) {
+    last_motion = Clock::now();
+    dirty = true;
+  }
+}
+
+// Runs script commands until one that needs frames to pass (wait, resize, screenshot...).
+void Session::step_script() {
+  if (!script || quit) return;
+  if (script_wait > 0) {
+    --script_wait;
+    return;
+  }
+  auto number = [](const std::string& s) { return std::stof(s); };
+  while (script_next < script->commands.size()) {
+    const ScriptCommand& c = script->commands[script_next++];
+    const auto& a = c.args;
+    auto camera_moved = [&] {
+      last_motion = Clock::now();
+      dirty = true;
+    };
+    if (c.name == "orbit") {
+      camera->orbit(number(a[0]), number(a[1]));
+      camera_moved();
+      return;  // one camera step per frame, as a dragging user would
+    } else if (c.name == "pan") {
+      camera->pan(number(a[0]), number(a[1]));
+      camera_moved();
+      return;
+    } else if (c.name == "zoom") {
+      camera->zoom(number(a[0]));
+      camera_moved();
+      return;
+    } else if (c.name == "fly") {
+      camera->fly(number(a[0]), number(a[1]), number(a[2]));
+      camera_moved();
+      return;
+    } else if (c.name == "reset") {
+      camera->reset();
+      camera_moved();
+    } else if (c.name == "knob") {
+      auto it = std::find_if(scene.materials.begin(), scene.materials.end(), [&](auto& m) { return m.name == a[0]; });
+      if (it == scene.materials.end()) {
+        error = weft::format("{}:{}: no material '{}' in the scene", script->path.string(), c.line, a[0]);
+        log::warn(error);
+        continue;
+      }
+      set_knob(std::size_t(it - scene.materials.begin()), a[1], nlohmann::json::parse(a[2]));
+    } else if (c.name == "quality") {
+      if (auto q = renderer::quality_from_string(a[0]); q) {
+        quality = *q;
+        dirty = true;
+      } else {
+        error = weft::format("{}:{}: {}", script->path.string(), c.line, q.error().message);
+        log::warn(error);
+      }
+    } else if (c.name == "ui") {
+      show_ui = a[0] == "on";
+    } else if (c.name == "resize") {
+      glfwSetWindowSize(window, std::stoi(a[0]), std::stoi(a[1]));
+      script_wait = 2;
+      return;
+    } else if (c.name == "minimize") {
+      // Without a window manager (Xvfb) iconifying does nothing, so the window is also unmapped.
+      glfwIconifyWindow(window);
+      glfwHideWindow(window);
+      script_hidden = true;
+      script_wait = 2;
+      return;
+    } else if (c.name == "restore") {
+      glfwShowWindow(window);
+      glfwRestoreWindow(window);
+      script_hidden = false;
+      script_wait = 2;
+      return;
+    } else if (c.name == "wait") {
+      script_wait = std::max(0, std::stoi(a[0]) - 1);
+      return;
+    } else if (c.name == "refine") {
+      last_motion = Clock::now() - std::chrono::hours(1);
+      if (!refined) dirty = true;
+      return;
+    } else if (c.name == "screenshot") {
+      screenshot = a[0];
+      return;
+    } else if (c.name == "copy") {
+      std::error_code ec;
+      std::filesystem::copy_file(a[0], a[1], std::filesystem::copy_options::overwrite_existing, ec);
+      if (ec) {
+        error = weft::format("{}:{}: cannot copy '{}' to '{}': {}", script->path.string(), c.line, a[0], a[1],
+                             ec.message());
+        log::warn(error);
+      } else {
+        // Some file systems keep whole-second times: make the change visible to the poll.
+        std::filesystem::last_write_time(a[1], std::filesystem::file_time_type::clock::now(), ec);
+      }
+      return;
+    } else if (c.name == "quit") {
+      quit = true;
+      return;
+    }
+  }
+  quit = true;  // the script ran out
+}
+
+Result<void> Session::render_scene(bool moving) {
+  int fw = 0, fh = 0;
+  glfwGetFramebufferSize(window, &fw, &fh);
+  if (fw <= 0 || fh <= 0) return {};
+  std::uint32_t w = std::uint32_t(fw), h = std::uint32_t(fh);
+  if (moving) {
+    w = std::max(16u, std::uint32_t(std::lround(fw * motion_scale)));
+    h = std::max(16u, std::uint32_t(std::lround(fh * motion_scale)));
+  }
+  const CameraPose pose = camera->pose();
+  scene.camera.position = pose.position;
+  scene.camera.target = pose.target;
+  const auto t0 = Clock::now();
+  auto frame = renderer->render(scene, {.width = w, .height = h, .quality = quality});
+  if (!frame) {
+    error = weft::format("frame failed: {}", frame.error().what());
+    log::warn(error);
+    dirty = false;  // the last good frame stays until the next change
+    return {};
+  }
+  if (!last_frame || last_frame->size().width != w || last_frame->size().height != h) {
+    last_frame.reset();
+    auto t = device->create_texture({.label = "viewer frame", .size = {w, h, 1}, .format = gpu::Format::RGBA8Unorm,
+                                     .usage = gpu::TextureUsage::CopySrc | gpu::TextureUsage::CopyDst});
+    if (!t) return std::unexpected(t.error());
+    last_frame.emplace(std::move(*t));
+  }
+  if (auto ok = device->queue().write_texture(*last_frame, std::as_bytes(std::span(frame->image.pixels)), 0,
+                                              gpu::Access::CopySrc);
+      !ok)
+    return ok;
+  last_render_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  rendered_w = w;
+  rendered_h = h;
+  ++scene_frames;
+  if (moving) {
+    // Aim the next moving frame at the budget: time grows about with the pixel count.
+    const double ratio = std::sqrt(options.motion_budget_ms / std::max(last_render_ms, 1.0));
+    motion_scale = float(std::clamp(double(motion_scale) * std::clamp(ratio, 0.5, 1.5), 0.1, 1.0));
+  }
+  if (error.rfind("frame failed", 0) == 0) error.clear();
+  stats = std::move(frame->stats);
+  passes = std::move(frame->passes);
+  warnings = std::move(frame->warnings);
+  frame_ms_history.push_back(float(last_render_ms));
+  if (frame_ms_history.size() > 120) frame_ms_history.erase(frame_ms_history.begin());
+  if (!graph && !moving) {
+    auto report = renderer->describe(scene, {.width = w, .height = h, .quality = quality});
+    if (report) graph = std::move(*report);
+  }
+  return {};
+}
+
+Result<void> Session::save_screenshot(const gpu::Texture& texture, const std::filesystem::path& path) {
+  auto bytes = device->queue().read_texture(texture);
+  if (!bytes) return std::unexpected(bytes.error());
+  auto image = image::Image8::filled(texture.size().width, texture.size().height, 4);
+  const bool bgra = texture.format() == gpu::Format::BGRA8Unorm;
+  const auto* in = reinterpret_cast<const std::uint8_t*>(bytes->data());
+  for (std::size_t i = 0; i < image.pixels.size(); i += 4) {
+    image.pixels[i + 0] = in[i + (bgra ? 2 : 0)];
+    image.pixels[i + 1] = in[i + 1];
+    image.pixels[i + 2] = in[i + (bgra ? 0 : 2)];
+    image.pixels[i + 3] = 255;
+  }
+  if (auto ok = image::save_png(path, image); !ok) return ok;
+  std::printf("screenshot %s (%ux%u)\n", path.string().c_str(), image.width, image.height);
+  std::fflush(stdout);
+  ++screenshots_taken;
+  return {};
+}
+
+Result<void> Session::present_frame() {
+  auto current = surface->get_current_texture();
+  if (!current) return std::unexpected(current.error());
+  if (current->status == gpu::SurfaceStatus::Minimized) return {};
+  const gpu::Texture& target = *current->texture;
+  if (present_graph)
+    present_graph->reset();
+  else
+    present_graph.emplace("present");
+  RenderGraph& frame_graph = *present_graph;
+  TextureHandle window_texture = frame_graph.import_texture("window", &target, gpu::Access::Undefined);
+  if (last_frame) {
+    struct Blit {
+      TextureHandle src, dst;
+    };
+    const TextureHandle image = frame_graph.import_texture("viewer frame", &*last_frame, gpu::Access::CopySrc);
+    const bool same_size = last_frame->size() == target.size();
+    auto& blit = frame_graph.add_pass<Blit>(
+        "present_blit",
+        [&](PassBuilder& b, Blit& d) {
+          d.src = b.read(image, TextureUse::CopySrc);
+          d.dst = b.write(window_texture, TextureUse::CopyDst);
+        },
+        [same_size](const PassResources& res, const Blit& d, PassContext& ctx) {
+          ctx.encoder().blit_texture(res.texture(d.src), res.texture(d.dst),
+                                     same_size ? gpu::FilterMode::Nearest : gpu::FilterMode::Linear);
+        });
+    window_texture = blit.dst;
+  } else {
+    struct Clear {
+      TextureHandle dst;
+    };
+    auto& clear = frame_graph.add_pass<Clear>(
+        "clear", [&](PassBuilder& b, Clear& d) { d.dst = b.write(window_texture, TextureUse::ColorAttachment); },
+        [](const PassResources& res, const Clear& d, PassContext& ctx) {
+          auto pass = ctx.encoder().begin_render_pass(
+              {.label = "clear", .color_attachments = {{.view = &res.view(d.dst), .clear_color = {0.1f, 0.1f, 0.1f, 1}}}});
+          pass.end();
+        });
+    window_texture = clear.dst;
+  }
+  if (show_ui) {
+    auto drawn = ui->add_pass(frame_graph, window_texture, ImGui::GetDrawData());
+    if (!drawn) return std::unexpected(drawn.error());
+    window_texture = *drawn;
+  }
+  frame_graph.mark_output(window_texture, gpu::Access::Present);
+  auto compiled = frame_graph.compile({.output_extent = target.size(), .device = &*device});
+  if (!compiled) return std::unexpected(compiled.error().to_error());
+  auto ran = compiled->execute(*device, {.timestamps = false});
+  if (!ran) return std::unexpected(ran.error());
+  if (screenshot) {
+    auto ok = save_screenshot(target, *screenshot);
+    screenshot.reset();
+    if (!ok) return ok;
+  }
+  return surface->present();
+}
+
+int run(const ViewOptions& options) {
+  Session s;
+  s.options = options;
+  if (auto ok = s.open(); !ok) {
+    std::fprintf(stderr, "weft view: %s\n", ok.error().what().c_str());
+    return 1;
+  }
+  glfwSetErrorCallback(on_glfw_error);
+  const char* display = std::getenv("DISPLAY");
+  if (!display || !*display) return no_window("no display (DISPLAY is not set)", options.scene);
+  if (!glfwInit()) return no_window("cannot open the display '" + std::string(display) + "': " + glfw_error_text, options.scene);
+
+  auto instance = gpu::Instance::create({.application_name = "weft-view", .presentation = true});
+  if (!instance) return no_window("no Vulkan presentation: " + instance.error().message, options.scene);
+  s.instance.emplace(std::move(*instance));
+  glfwWindowHint(GLFW_CLIENT_API, GLFW_NO_API);
+  const std::string title = "weft view - " + options.scene.filename().string();
+  s.window = glfwCreateWindow(int(options.width), int(options.height), title.c_str(), nullptr, nullptr);
+  if (!s.window) return no_window("cannot create a window: " + glfw_error_text, options.scene);
+  auto surface = s.instance->create_surface(native_window(s.window));
+  if (!surface) return no_window(surface.error().message, options.scene);
+  s.surface.emplace(std::move(*surface));
+  auto adapter = s.instance->request_adapter();
+  if (!adapter) return no_window(adapter.error().message, options.scene);
+  s.adapter.emplace(std::move(*adapter));
+  auto device = s.adapter->request_device({.label = "weft view"});
+  if (!device) return no_window(device.error().message, options.scene);
+  s.device.emplace(std::move(*device));
+  auto caps = s.surface->capabilities(*s.device);
+  if (!caps) return no_window(caps.error().message, options.scene);
+  // A UNORM target: the tone-mapped image is already sRGB-encoded, and so are ImGui's colours.
+  for (auto f : {gpu::Format::BGRA8Unorm, gpu::Format::RGBA8Unorm})
+    if (std::find(caps->formats.begin(), caps->formats.end(), f) != caps->formats.end()) {
+      s.surface_format = f;
+      break;
+    }
+  int fw = 0, fh = 0;
+  glfwGetFramebufferSize(s.window, &fw, &fh);
+  if (auto ok = s.surface->configure(*s.device, {.format = s.surface_format, .width = std::uint32_t(fw),
+                                                 .height = std::uint32_t(fh),
+                                                 .present_mode = gpu::PresentMode::Fifo});
+      !ok)
+    return no_window(ok.error().message, options.scene);
+
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini next to the user's files
+  ImGui::StyleColorsDark();
+  ImGui_ImplGlfw_InitForOther(s.window, true);
+  auto ui = UiRenderer::create(*s.device, s.surface_format);
+  if (!ui) {
+    std::fprintf(stderr, "weft view: %s\n", ui.error().what().c_str());
+    return 1;
+  }
+  s.ui.emplace(std::move(*ui));
+  auto renderer = renderer::Renderer::create(*s.device);
+  if (!renderer) {
+    std::fprintf(stderr, "weft view: %s\n", renderer.error().what().c_str());
+    return 1;
+  }
+  s.renderer.emplace(std::move(*renderer));
+  log::info(weft::format("viewing {} on {} ({})", options.scene.string(), s.adapter->info().name,
+                         gpu::to_string(s.surface->configuration().present_mode)));
+
+  auto last = Clock::now();
+  auto fps_window = Clock::now();
+  std::uint64_t fps_frames = 0;
+  while (!s.quit && !glfwWindowShouldClose(s.window)) {
+    const double dt = seconds_since(last);
+    last = Clock::now();
+    glfwPollEvents();
+    s.step_script();
+    s.poll_reload();
+    const bool hidden = s.script_hidden || glfwGetWindowAttrib(s.window, GLFW_ICONIFIED);
+    glfwGetFramebufferSize(s.window, &fw, &fh);
+    if (hidden || fw <= 0 || fh <= 0) {  // minimised: nothing to draw, keep the CPU idle
+      glfwWaitEventsTimeout(0.02);
+      continue;
+    }
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    s.handle_input(dt);
+    if ((fw != int(s.rendered_w) || fh != int(s.rendered_h)) && s.refined) s.dirty = true;  // resized
+    const bool moving = seconds_since(s.last_motion) < 0.25;
+    if (s.dirty || (!s.refined && !moving)) {
+      if (!moving && !s.refined && s.refine_requested == Clock::time_point{}) s.refine_requested = s.last_motion;
+      if (auto ok = s.render_scene(moving); !ok) {
+        std::fprintf(stderr, "weft view: %s\n", ok.error().what().c_str());
+        return 1;
+      }
+      s.dirty = false;
+      s.refined = !moving && s.rendered_w == std::uint32_t(fw) && s.rendered_h == std::uint32_t(fh);
+      if (s.refined && s.refine_requested != Clock::time_point{} &&
+          seconds_since(s.refine_requested) < 3600) {
+        s.last_refine_ms = std::chrono::duration<double, std::milli>(Clock::now() - s.last_motion).count();
+        s.refine_requested = {};
+      }
+    }
+    s.draw_ui();
+    ImGui::Render();
+    if (auto ok = s.present_frame(); !ok) {
+      std::fprintf(stderr, "weft view: %s\n", ok.error().what().c_str());
+      return 1;
+    }
+    ++s.ui_frames;
+    ++fps_frames;
+    s.ui_ms_history.push_back(float(dt * 1000.0));
+    if (s.ui_ms_history.size() > 120) s.ui_ms_history.erase(s.ui_ms_history.begin());
+    if (seconds_since(fps_window) >= 1.0) {
+      s.ui_fps = double(fps_frames) / seconds_since(fps_window);
+      fps_window = Clock::now();
+      fps_frames = 0;
+    }
+    if (!s.dirty && s.refined && !s.script && seconds_since(s.last_motion) > 1.0) glfwWaitEventsTimeout(0.05);
+  }
+  (void)s.device->queue().wait_idle();
+  std::printf("weft view: %llu UI frames, %llu scene frames, %d screenshot(s)\n",
+              static_cast<unsigned long long>(s.ui_frames), static_cast<unsigned long long>(s.scene_frames),
+              s.screenshots_taken);
+  if (s.instance->validation_enabled()) {
+    const auto count = s.instance->validation_message_count();
+    std::printf("weft view: %zu validation message(s)\n", count);
+    if (count > 0) return 3;
+  }
+  return 0;
+}
+
+}  // namespace weft::viewer

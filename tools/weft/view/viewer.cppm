@@ -1,0 +1,182 @@
+// weft.viewer — `weft view`: the renderer presenting to a window (GLFW, X11) with a camera
+// that orbits, pans, zooms and flies, a Dear ImGui panel of the scene, its knobs, per-pass
+// times and the compiled graph, scene hot reload and scripted sessions for tests. The scene
+// is rendered only when something changed (at a lower resolution while the camera moves);
+// every UI frame re-presents the last image under the UI, so the window stays responsive
+// on a CPU adapter whose frames take seconds.
+module;
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+#include <chrono>
+#include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
+struct GLFWwindow;
+export module weft.viewer;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.scene;
+import weft.renderer;
+
+export namespace weft::viewer {
+
+// ---- camera --------------------------------------------------------------------------------
+// Yaw, pitch and distance about a target (Y up), starting from a scene's camera. Pan and fly
+// distances are fractions of the distance to the target, so input feels alike at any scale.
+struct CameraPose {
+  glm::vec3 position{0.0f, 1.0f, 5.0f};
+  glm::vec3 target{0.0f};
+};
+class OrbitCamera {
+ public:
+  explicit OrbitCamera(CameraPose start);
+  void orbit(float yaw_degrees, float pitch_degrees);  // pitch stays within ±89°
+  void pan(float right, float up);
+  void zoom(float factor);  // distance *= factor (ignored unless finite and > 0)
+  void fly(float forward, float right, float up);
+  void reset() { *this = OrbitCamera(start_); }
+  [[nodiscard]] CameraPose pose() const;
+  [[nodiscard]] float distance() const { return distance_; }
+
+ private:
+  [[nodiscard]] glm::vec3 forward() const;
+  CameraPose start_;
+  glm::vec3 target_{0.0f};
+  float distance_ = 1.0f, yaw_ = 0.0f, pitch_ = 0.0f;  // radians
+};
+
+// ---- scripted sessions -----------------------------------------------------------------------
+// One command per line, '#' starts a comment:
+//   orbit DYAW DPITCH | pan RIGHT UP | zoom FACTOR | fly FORWARD RIGHT UP | reset
+//   knob MATERIAL FIELD VALUE   (VALUE is JSON: 32, 0.5, true, "adaptive")
+//   quality low|medium|high|reference | ui on|off | resize W H | minimize | restore
+//   wait FRAMES | refine | screenshot PATH | copy FROM TO | quit
+struct ScriptCommand {
+  std::string name;
+  std::vector<std::string> args;
+  int line = 0;
+};
+struct Script {
+  std::filesystem::path path;
+  std::vector<ScriptCommand> commands;
+};
+// Every line is checked up front; an error names the file, the line and what is wrong.
+Result<Script> parse_script(const std::filesystem::path& path, const std::string& text);
+
+// ---- the session -----------------------------------------------------------------------------
+struct ViewOptions {
+  std::filesystem::path scene;
+  std::uint32_t width = 1280, height = 720;
+  std::string quality = "medium";
+  std::optional<std::filesystem::path> script;
+  // Scene renders while the camera moves aim at this many milliseconds (dynamic resolution).
+  double motion_budget_ms = 100.0;
+};
+// Runs until the window closes, Escape, or the script's `quit`; the exit code (non-zero with
+// a one-line reason on stderr: no display, a bad scene or script, validation messages).
+int run(const ViewOptions& options);
+
+}  // namespace weft::viewer
+
+// Shared by the implementation units (not exported).
+namespace weft::viewer::detail {
+
+// Dear ImGui's draw data drawn over `target` by a graph pass named "ui".
+class UiRenderer {
+ public:
+  static Result<UiRenderer> create(gpu::Device& device, gpu::Format target);
+  // `draw_data` is the ImDrawData of ImGui::GetDrawData() (opaque here: no ImGui in the interface).
+  Result<TextureHandle> add_pass(RenderGraph& graph, TextureHandle target, const void* draw_data);
+
+ private:
+  struct State;
+  std::shared_ptr<State> state_;
+};
+
+// A knob as the UI shows it. Read today from weft.tradeoff's catalogue (knobs.cpp); the
+// feature registry (weft.feature) replaces it there once every feature registers its table.
+enum class KnobKind : std::uint8_t { Integer, Number, Boolean, Choice };
+struct UiKnob {
+  std::string name;  // the material field; '.' descends: "lut.size"
+  KnobKind kind = KnobKind::Integer;
+  double min = 0.0, max = 0.0;
+  std::vector<std::string> choices;
+  std::string meaning;
+  nlohmann::json preset;  // the value the quality preset gives when the material leaves it unset
+};
+std::vector<UiKnob> knobs_for(const scene::Material& material, Quality quality);
+std::string material_type_name(const scene::Material& material);
+bool is_standard(const scene::Material& material);
+
+// The window's native handles for gpu::Surface (window_x11.cpp: Xlib stays in that unit).
+gpu::NativeWindow native_window(GLFWwindow* window);
+
+using Clock = std::chrono::steady_clock;
+
+// Everything one viewer session owns. Members are declared in the order they must be built
+// (and are destroyed in reverse): the window outlives the surface, the device the renderer.
+struct Session {
+  ViewOptions options;
+  GLFWwindow* window = nullptr;
+  std::optional<gpu::Instance> instance;
+  std::optional<gpu::Surface> surface;
+  std::optional<gpu::Adapter> adapter;
+  std::optional<gpu::Device> device;
+  std::optional<renderer::Renderer> renderer;
+  std::optional<UiRenderer> ui;
+  std::optional<RenderGraph> present_graph;
+  gpu::Format surface_format = gpu::Format::BGRA8Unorm;
+
+  scene::Scene scene;
+  std::optional<std::filesystem::file_time_type> scene_time;
+  scene::Camera file_camera;  // the file's camera: a reload that changes it resets the view
+  std::optional<OrbitCamera> camera;
+  Quality quality = Quality::Medium;
+
+  std::optional<gpu::Texture> last_frame;  // the last scene image (RGBA8, sRGB-encoded)
+  bool dirty = true;                        // the scene, camera, knobs or size changed
+  bool refined = false;                     // last_frame is at full resolution and current
+  Clock::time_point last_motion = Clock::now() - std::chrono::hours(1);
+  float motion_scale = 0.5f;                // dynamic resolution while the camera moves
+  std::uint32_t rendered_w = 0, rendered_h = 0;
+  double last_render_ms = 0.0;
+  Clock::time_point refine_requested{};     // for the time-to-refined measurement
+  double last_refine_ms = -1.0;
+
+  // Shown by the UI.
+  bool show_ui = true;
+  FrameStats stats;
+  std::vector<std::string> passes, warnings;
+  std::optional<renderer::GraphReport> graph;
+  std::string error;  // the last failed reload or frame, one line; empty when all is well
+  std::vector<float> frame_ms_history, ui_ms_history;
+  double ui_fps = 0.0;
+  std::uint64_t ui_frames = 0, scene_frames = 0;
+
+  // The script, if any.
+  std::optional<Script> script;
+  std::size_t script_next = 0;
+  int script_wait = 0;
+  bool script_hidden = false;
+  bool quit = false;
+  std::optional<std::filesystem::path> screenshot;
+  int screenshots_taken = 0;
+
+  Result<void> open();
+  Result<void> load(bool first);
+  void poll_reload();
+  void handle_input(double dt);
+  void step_script();
+  Result<void> render_scene(bool moving);
+  Result<void> present_frame();
+  Result<void> save_screenshot(const gpu::Texture& texture, const std::filesystem::path& path);
+  void draw_ui();  // panels.cpp
+  void set_knob(std::size_t material, const std::string& field, const nlohmann::json& value);
+  ~Session();
+};
+
+}  // namespace weft::viewer::detail
