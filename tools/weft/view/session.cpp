@@ -316,6 +316,8 @@ Result<void> Session::render_scene(bool moving) {
   rendered_h = h;
   ++scene_frames;
   if (moving) {
+    moving_scene_ms.push_back(last_render_ms);
+    moving_pixels += std::uint64_t(w) * h;
     // Aim the next moving frame at the budget: time grows about with the pixel count.
     const double ratio = std::sqrt(options.motion_budget_ms / std::max(last_render_ms, 1.0));
     motion_scale = float(std::clamp(double(motion_scale) * std::clamp(ratio, 0.5, 1.5), 0.1, 1.0));
@@ -506,6 +508,7 @@ int run(const ViewOptions& options) {
       if (s.refined && s.refine_requested != Clock::time_point{} &&
           seconds_since(s.refine_requested) < 3600) {
         s.last_refine_ms = std::chrono::duration<double, std::milli>(Clock::now() - s.last_motion).count();
+        s.refine_ms.push_back(s.last_refine_ms);
         s.refine_requested = {};
       }
     }
@@ -517,6 +520,10 @@ int run(const ViewOptions& options) {
     }
     ++s.ui_frames;
     ++fps_frames;
+    if (moving) {
+      ++s.moving_ui_frames;
+      s.moving_seconds += seconds_since(last);
+    }
     s.ui_ms_history.push_back(float(dt * 1000.0));
     if (s.ui_ms_history.size() > 120) s.ui_ms_history.erase(s.ui_ms_history.begin());
     if (seconds_since(fps_window) >= 1.0) {
@@ -530,6 +537,22 @@ int run(const ViewOptions& options) {
   std::printf("weft view: %llu UI frames, %llu scene frames, %d screenshot(s)\n",
               static_cast<unsigned long long>(s.ui_frames), static_cast<unsigned long long>(s.scene_frames),
               s.screenshots_taken);
+  if (!s.moving_scene_ms.empty()) {
+    auto sorted = s.moving_scene_ms;
+    std::sort(sorted.begin(), sorted.end());
+    const double pixels = double(s.moving_pixels) / double(s.moving_scene_ms.size());
+    std::printf("weft view: while the camera moved: %llu UI frames in %.2f s (%.1f fps); scene frames median %.0f ms "
+                "at %.0f%% of the window's pixels on average\n",
+                static_cast<unsigned long long>(s.moving_ui_frames), s.moving_seconds,
+                s.moving_seconds > 0 ? double(s.moving_ui_frames) / s.moving_seconds : 0.0, sorted[sorted.size() / 2],
+                100.0 * pixels / (double(fw) * double(fh)));
+  }
+  if (!s.refine_ms.empty()) {
+    auto sorted = s.refine_ms;
+    std::sort(sorted.begin(), sorted.end());
+    std::printf("weft view: refined full-resolution image %.0f ms (median of %zu) after the camera stopped\n",
+                sorted[sorted.size() / 2], sorted.size());
+  }
   if (s.instance->validation_enabled()) {
     const auto count = s.instance->validation_message_count();
     std::printf("weft view: %zu validation message(s)\n", count);

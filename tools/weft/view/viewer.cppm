@@ -156,6 +156,13 @@ struct Session {
   std::vector<float> frame_ms_history, ui_ms_history;
   double ui_fps = 0.0;
   std::uint64_t ui_frames = 0, scene_frames = 0;
+  // While the camera moves: UI frames and their time, and the scene frames' times and sizes
+  // (the numbers docs/viewer.md reports; printed when the session ends).
+  std::uint64_t moving_ui_frames = 0;
+  double moving_seconds = 0.0;
+  std::vector<double> moving_scene_ms;
+  std::uint64_t moving_pixels = 0;
+  std::vector<double> refine_ms;
 
   // The script, if any.
   std::optional<Script> script;
