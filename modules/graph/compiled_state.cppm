@@ -21,7 +21,7 @@ struct HeapBuilder;  // frame_plan.cpp
 struct HeapBuilders {  // the memory planner's heaps, kept with their arrays' capacity
   HeapBuilders();
   ~HeapBuilders();
-  std::vector<HeapBuilder> heaps;
+  std::vector<std::unique_ptr<HeapBuilder>> heaps;  // not moved: a heap's search tree points into it
 };
 struct CompileScratch {
   std::vector<std::uint8_t> alive;

@@ -3,16 +3,24 @@
 // use) do not overlap share memory: each is placed at its first use into the best-fitting
 // free run of its heap (or grows the heap) and freed after its last use, which the walk knows
 // from scratch.last_pass. Each heap remembers, per byte range, its latest occupant, so a
-// resource that takes over memory waits for its previous occupant's last access. Barriers:
+// resource that takes over memory waits for its previous occupant's last access; with many
+// transients alive its free runs and byte ranges move from sorted arrays to search trees, so
+// a placement costs O(log n) however many there are (see HeapBuilder). Barriers:
 // each resource's previous state is compared with the state a pass declares: any write on
 // either side (RAW, WAR, WAW) or any change of state needs one. Two reads in different states
 // get one too even when the image layout is the same, because a later write's barrier names
 // only the last state, and the earlier read is covered only through that chain.
 module;
 #include <algorithm>
+#include <cstddef>
 #include <cstdint>
+#include <iterator>
+#include <map>
+#include <memory>
+#include <set>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 module weft.graph;
 import weft.core;
@@ -52,144 +60,471 @@ gpu::TextureDescriptor texture_descriptor(const ResourceInfo& r) {
 
 }  // namespace
 
+// ---- the memory planner's structures ------------------------------------------------------
+// A heap keeps its free runs (dead memory, coalesced) and its segments (who used each byte
+// range last, covering the heap). While there are few, both are sorted arrays: a scan and a
+// shift of a few entries cost least, and a frame's common cases touch only their ends. Once
+// there are many (many transients alive, a fragmented heap), both become search trees and
+// the free runs gain an index by size, so a placement costs O(log n) -- a binary search, not
+// a walk over every free run, and no shifting of long arrays. The placement is the same
+// either way: plain best fit (the smallest free run that fits, the lowest of equal ones).
+
+// Tree nodes, recycled: the trees are emptied every compile, and a compile of the same shape
+// allocates none. Every node of one pool has one size (one tree's node type).
+class NodePool {
+ public:
+  NodePool() = default;
+  NodePool(const NodePool&) = delete;
+  NodePool& operator=(const NodePool&) = delete;
+  void* get(std::size_t bytes) {
+    if (free_ != nullptr) {
+      void* p = free_;
+      free_ = *static_cast<void**>(p);
+      return p;
+    }
+    bytes = (bytes + 15) & ~std::size_t(15);
+    if (left_ < bytes) {
+      const std::size_t block = std::max<std::size_t>(bytes * 64, 4096);
+      blocks_.push_back(std::make_unique_for_overwrite<std::byte[]>(block));
+      cursor_ = blocks_.back().get();
+      left_ = block;
+    }
+    void* p = cursor_;
+    cursor_ += bytes;
+    left_ -= bytes;
+    return p;
+  }
+  void put(void* p) {
+    *static_cast<void**>(p) = free_;
+    free_ = p;
+  }
+
+ private:
+  std::vector<std::unique_ptr<std::byte[]>> blocks_;
+  std::byte* cursor_ = nullptr;
+  std::size_t left_ = 0;
+  void* free_ = nullptr;
+};
+
+template <class T>
+struct PoolAllocator {
+  using value_type = T;
+  NodePool* pool;
+  explicit PoolAllocator(NodePool* p) : pool(p) {}
+  template <class U>
+  PoolAllocator(const PoolAllocator<U>& other) : pool(other.pool) {}  // NOLINT: rebinding, as allocators do
+  T* allocate(std::size_t n) { return static_cast<T*>(pool->get(n * sizeof(T))); }
+  void deallocate(T* p, std::size_t) { pool->put(p); }
+  friend bool operator==(const PoolAllocator& a, const PoolAllocator& b) { return a.pool == b.pool; }
+};
+
+template <class Key, class Value>
+using PooledMap = std::map<Key, Value, std::less<>, PoolAllocator<std::pair<const Key, Value>>>;
+
 struct Range {
   std::uint64_t begin, end;
 };
 
-// Who used each byte range of a heap last: consecutive segments covering [0, size).
-struct Segment {
-  std::uint64_t begin, end;
+// Free runs in a sorted array and in a tree, behind the same few operations.
+struct RunArray {
+  std::vector<Range> runs;
+  using iterator = std::vector<Range>::iterator;
+  static std::uint64_t begin_of(iterator i) { return i->begin; }
+  static std::uint64_t end_of(iterator i) { return i->end; }
+  static void set_end(iterator i, std::uint64_t end) { i->end = end; }
+  iterator begin() { return runs.begin(); }
+  iterator end() { return runs.end(); }
+  [[nodiscard]] std::size_t size() const { return runs.size(); }
+  [[nodiscard]] bool empty() const { return runs.empty(); }
+  // The ends first: a frame's common cases append and take the last run.
+  iterator insert(iterator at, std::uint64_t begin, std::uint64_t end) {
+    if (at == runs.end()) {
+      runs.push_back(Range{begin, end});
+      return runs.end() - 1;
+    }
+    return runs.insert(at, Range{begin, end});
+  }
+  iterator erase(iterator i) {
+    if (i + 1 == runs.end()) {
+      runs.pop_back();
+      return runs.end();
+    }
+    return runs.erase(i);
+  }
+  iterator move_begin(iterator i, std::uint64_t begin) {
+    i->begin = begin;
+    return i;
+  }
+  iterator upper_bound(std::uint64_t begin) {
+    return std::upper_bound(runs.begin(), runs.end(), begin, [](std::uint64_t x, const Range& f) { return x < f.begin; });
+  }
+  iterator find(std::uint64_t begin) {
+    return std::partition_point(runs.begin(), runs.end(), [&](const Range& f) { return f.begin < begin; });
+  }
+};
+
+struct RunTree {
+  explicit RunTree(NodePool* pool) : runs(PooledMap<std::uint64_t, std::uint64_t>::allocator_type(pool)) {}
+  PooledMap<std::uint64_t, std::uint64_t> runs;  // first byte -> one past the last
+  using iterator = PooledMap<std::uint64_t, std::uint64_t>::iterator;
+  static std::uint64_t begin_of(iterator i) { return i->first; }
+  static std::uint64_t end_of(iterator i) { return i->second; }
+  static void set_end(iterator i, std::uint64_t end) { i->second = end; }
+  iterator begin() { return runs.begin(); }
+  iterator end() { return runs.end(); }
+  [[nodiscard]] std::size_t size() const { return runs.size(); }
+  [[nodiscard]] bool empty() const { return runs.empty(); }
+  iterator insert(iterator at, std::uint64_t begin, std::uint64_t end) { return runs.emplace_hint(at, begin, end); }
+  iterator erase(iterator i) { return runs.erase(i); }
+  iterator move_begin(iterator i, std::uint64_t begin) {  // a key changes: out and in again
+    const std::uint64_t end = i->second;
+    return runs.emplace_hint(runs.erase(i), begin, end);
+  }
+  iterator upper_bound(std::uint64_t begin) { return runs.upper_bound(begin); }
+  iterator find(std::uint64_t begin) { return runs.find(begin); }
+};
+
+// Segments (consecutive, covering [0, size)) in a sorted array and in a tree, likewise.
+struct Occupied {
+  std::uint64_t end;
   std::uint32_t occupant;  // invalid_index: never used
 };
 
-struct HeapBuilder {
-  ResourceType type;
-  std::uint32_t type_bits;
-  std::uint64_t size = 0;
-  std::vector<Range> free;  // dead memory inside [0, size): sorted, coalesced
-  std::vector<Segment> segments;
+struct SegmentArray {
+  struct Entry {
+    std::uint64_t begin;
+    Occupied value;
+  };
+  std::vector<Entry> segments;
+  using iterator = std::vector<Entry>::iterator;
+  static std::uint64_t begin_of(iterator i) { return i->begin; }
+  static Occupied& value(iterator i) { return i->value; }
+  iterator begin() { return segments.begin(); }
+  iterator end() { return segments.end(); }
+  [[nodiscard]] std::size_t size() const { return segments.size(); }
+  // The segment holding byte `offset` (< the heap's size).
+  iterator holding(std::uint64_t offset) {
+    return std::partition_point(segments.begin(), segments.end(), [&](const Entry& s) { return s.value.end <= offset; });
+  }
+  iterator insert(iterator at, std::uint64_t begin, Occupied value) { return segments.insert(at, Entry{begin, value}); }
+  iterator erase(iterator first, iterator last) { return segments.erase(first, last); }
+  void append(std::uint64_t begin, Occupied value) { segments.push_back(Entry{begin, value}); }
+};
 
-  // Best fit among the free runs, else at the end of the heap (growing it, starting inside
-  // the trailing free run when there is one). The common cases of a frame -- nothing free (a
-  // new slot at the end) and a free run that fits exactly (a chain reusing the memory of a
-  // resource two passes back) -- touch only the ends of the arrays; every case places where
-  // the general best-fit search would.
+struct SegmentTree {
+  explicit SegmentTree(NodePool* pool) : segments(PooledMap<std::uint64_t, Occupied>::allocator_type(pool)) {}
+  PooledMap<std::uint64_t, Occupied> segments;  // by first byte
+  using iterator = PooledMap<std::uint64_t, Occupied>::iterator;
+  static std::uint64_t begin_of(iterator i) { return i->first; }
+  static Occupied& value(iterator i) { return i->second; }
+  iterator begin() { return segments.begin(); }
+  iterator end() { return segments.end(); }
+  [[nodiscard]] std::size_t size() const { return segments.size(); }
+  iterator holding(std::uint64_t offset) { return std::prev(segments.upper_bound(offset)); }
+  iterator insert(iterator at, std::uint64_t begin, Occupied value) { return segments.emplace_hint(at, begin, value); }
+  iterator erase(iterator first, iterator last) { return segments.erase(first, last); }
+  void append(std::uint64_t begin, Occupied value) { segments.emplace_hint(segments.end(), begin, value); }
+};
+
+// The free runs by size, then address: the order plain best fit picks in. Kept with the tree
+// of free runs.
+struct FreeKey {
+  std::uint64_t size, begin;
+  friend bool operator<(const FreeKey& a, const FreeKey& b) {
+    return a.size != b.size ? a.size < b.size : a.begin < b.begin;
+  }
+};
+
+struct HeapBuilder {
+  HeapBuilder()
+      : run_tree(&run_nodes), by_size(PoolAllocator<FreeKey>(&size_nodes)), segment_tree(&segment_nodes) {}
+  HeapBuilder(const HeapBuilder&) = delete;  // the trees point at their node pools
+  HeapBuilder& operator=(const HeapBuilder&) = delete;
+
+  ResourceType type = ResourceType::Texture;
+  std::uint32_t type_bits = ~0u;
+  std::uint64_t size = 0;
+  NodePool run_nodes, size_nodes, segment_nodes;  // before the trees: they outlive them
+  bool runs_in_tree = false, segments_in_tree = false;
+  RunArray run_array;
+  RunTree run_tree;
+  std::set<FreeKey, std::less<>, PoolAllocator<FreeKey>> by_size;  // with run_tree
+  SegmentArray segment_array;
+  SegmentTree segment_tree;
+
+  // The trees take over from this many entries, and hand back below the second number (apart,
+  // so that a heap hovering at one size does not switch at every placement).
+  static constexpr std::size_t runs_to_tree = 32, runs_to_array = 16;
+  static constexpr std::size_t segments_to_tree = 256, segments_to_array = 128;
+
+  void reset(ResourceType heap_type, std::uint32_t bits) {
+    type = heap_type;
+    type_bits = bits;
+    size = 0;
+    run_array.runs.clear();
+    run_tree.runs.clear();
+    by_size.clear();
+    segment_array.segments.clear();
+    segment_tree.segments.clear();
+    runs_in_tree = segments_in_tree = false;
+  }
+
   // Returns the offset; `appended` is set when the resource got a fresh slot at the end of
   // the heap with no padding, whose segment place() has already recorded (occupy() not needed).
   [[gnu::always_inline]] inline std::uint64_t place(std::uint64_t bytes, const Alignment& alignment, std::uint32_t resource,
                                                     bool& appended) {
-    appended = false;
-    if (free.empty() && bytes > 0) {
-      const std::uint64_t at = alignment.up(size);
-      if (at == size) {
-        size = at + bytes;
-        segments.push_back(Segment{at, size, resource});
-        appended = true;
-        return at;
-      }
+    const std::uint64_t offset = runs_in_tree ? place_in_tree(bytes, alignment, resource, appended)
+                                              : place_in(run_array, bytes, alignment, resource, appended);
+    if (runs_in_tree) [[unlikely]] {
+      if (run_tree.size() < runs_to_array) runs_to_arrays();
+    } else if (run_array.size() >= runs_to_tree) [[unlikely]] {
+      runs_to_trees();
     }
-    // One free run that fits exactly (a chain taking over what a resource two passes back
-    // left): the best fit, taken whole, without setting up the search.
-    if (free.size() == 1 && free[0].end - free[0].begin == bytes && alignment.up(free[0].begin) == free[0].begin) {
-      const std::uint64_t at = free[0].begin;
-      free.pop_back();
-      return at;
-    }
-    constexpr std::uint64_t none = ~0ull;
-    std::uint64_t best = none, best_size = none;
-    std::size_t best_run = 0;
-    for (std::size_t i = 0, n = free.size(); i < n; ++i) {
-      const Range& f = free[i];
-      const std::uint64_t at = alignment.up(f.begin);
-      if (at + bytes <= f.end && f.end - f.begin < best_size) {
-        best = at;
-        best_size = f.end - f.begin;
-        best_run = i;
-      }
-    }
-    if (best == none) {
-      const bool trailing = !free.empty() && free.back().end == size;
-      best = alignment.up(trailing ? free.back().begin : size);
-      const std::uint64_t grown = best + bytes;
-      if (trailing) free.back().end = grown;
-      else free.push_back(Range{size, grown});
-      segments.push_back(Segment{size, grown, invalid_index});
-      size = grown;
-      best_run = free.size() - 1;
-    }
-    // Carve [best, best + bytes) out of the free run holding it.
-    const auto run = free.begin() + std::ptrdiff_t(best_run);
-    const Range whole = *run;
-    const Range left{whole.begin, best}, right{best + bytes, whole.end};
-    if (left.end > left.begin && right.end > right.begin) {
-      *run = left;
-      free.insert(run + 1, right);
-    } else if (left.end > left.begin) {
-      *run = left;
-    } else if (right.end > right.begin) {
-      *run = right;
-    } else if (best_run + 1 == free.size()) {
-      free.pop_back();
-    } else {
-      free.erase(run);
-    }
-    return best;
+    return offset;
   }
 
   [[gnu::always_inline]] inline void release(std::uint64_t offset, std::uint64_t bytes) {
-    Range r{offset, offset + bytes};
-    // Past every free run (or none): join the last one or append, no search.
-    if (free.empty() || free.back().end <= r.begin) {
-      if (!free.empty() && free.back().end == r.begin) free.back().end = r.end;
-      else free.push_back(r);
-      return;
-    }
-    auto at = std::upper_bound(free.begin(), free.end(), offset, [](std::uint64_t x, const Range& f) { return x < f.begin; });
-    const bool join_previous = at != free.begin() && (at - 1)->end == r.begin;
-    const bool join_next = at != free.end() && at->begin == r.end;
-    if (join_previous && join_next) {
-      (at - 1)->end = at->end;
-      free.erase(at);
-    } else if (join_previous) {
-      (at - 1)->end = r.end;
-    } else if (join_next) {
-      at->begin = r.begin;
+    if (runs_in_tree) [[unlikely]] {
+      release_in_tree(offset, bytes);
+      if (run_tree.size() < runs_to_array) runs_to_arrays();
     } else {
-      free.insert(at, r);
+      release_in(run_array, offset, bytes);
+      if (run_array.size() >= runs_to_tree) [[unlikely]] runs_to_trees();
     }
   }
 
   // Marks [offset, offset + bytes) as `resource`'s and appends the previous occupants to
   // `previous` (each once: `previous` holds only this resource's).
-  [[gnu::always_inline]] inline void occupy(std::uint64_t offset, std::uint64_t bytes, std::uint32_t resource, std::vector<std::uint32_t>& previous,
-              std::size_t previous_begin) {
+  [[gnu::always_inline]] inline void occupy(std::uint64_t offset, std::uint64_t bytes, std::uint32_t resource,
+                                            std::vector<std::uint32_t>& previous, std::size_t previous_begin) {
+    if (segments_in_tree) [[unlikely]] occupy_in_tree(offset, bytes, resource, previous, previous_begin);
+    else occupy_in(segment_array, offset, bytes, resource, previous, previous_begin);
+    check_segments();
+  }
+
+ private:
+  // The tree versions out of line: the arrays' are what a frame usually runs, inline.
+  [[gnu::noinline]] std::uint64_t place_in_tree(std::uint64_t bytes, const Alignment& alignment, std::uint32_t resource,
+                                                bool& appended) {
+    return place_in(run_tree, bytes, alignment, resource, appended);
+  }
+  [[gnu::noinline]] void release_in_tree(std::uint64_t offset, std::uint64_t bytes) { release_in(run_tree, offset, bytes); }
+  [[gnu::noinline]] void occupy_in_tree(std::uint64_t offset, std::uint64_t bytes, std::uint32_t resource,
+                                        std::vector<std::uint32_t>& previous, std::size_t previous_begin) {
+    occupy_in(segment_tree, offset, bytes, resource, previous, previous_begin);
+  }
+  [[gnu::noinline]] void runs_to_trees() {
+    run_tree.runs.clear();
+    by_size.clear();
+    for (const Range& r : run_array.runs) {
+      run_tree.runs.emplace_hint(run_tree.runs.end(), r.begin, r.end);
+      by_size.insert(FreeKey{r.end - r.begin, r.begin});
+    }
+    run_array.runs.clear();
+    runs_in_tree = true;
+  }
+  [[gnu::noinline]] void runs_to_arrays() {
+    run_array.runs.clear();
+    for (const auto& [begin, end] : run_tree.runs) run_array.runs.push_back(Range{begin, end});
+    run_tree.runs.clear();
+    by_size.clear();
+    runs_in_tree = false;
+  }
+  // Switches the segments between array and tree when their number crosses a threshold:
+  // the check inline (every placement), the switch out of line (rare).
+  [[gnu::always_inline]] inline void check_segments() {
+    if (segments_in_tree ? segment_tree.size() < segments_to_array : segment_array.size() >= segments_to_tree)
+        [[unlikely]]
+      switch_segments();
+  }
+  [[gnu::noinline]] void switch_segments() {
+    if (!segments_in_tree) {
+      segment_tree.segments.clear();
+      for (const SegmentArray::Entry& s : segment_array.segments)
+        segment_tree.segments.emplace_hint(segment_tree.segments.end(), s.begin, s.value);
+      segment_array.segments.clear();
+      segments_in_tree = true;
+    } else {
+      segment_array.segments.clear();
+      for (const auto& [begin, value] : segment_tree.segments) segment_array.segments.push_back({begin, value});
+      segment_tree.segments.clear();
+      segments_in_tree = false;
+    }
+  }
+  void append_segment(std::uint64_t begin, Occupied value) {
+    if (segments_in_tree) segment_tree.append(begin, value);
+    else segment_array.append(begin, value);
+    check_segments();
+  }
+
+  template <class Runs>
+  void index_insert(std::uint64_t begin, std::uint64_t end) {
+    if constexpr (std::is_same_v<Runs, RunTree>) by_size.insert(FreeKey{end - begin, begin});
+  }
+  template <class Runs>
+  void index_erase(std::uint64_t begin, std::uint64_t end) {
+    if constexpr (std::is_same_v<Runs, RunTree>) by_size.erase(FreeKey{end - begin, begin});
+  }
+
+  // Best fit among the free runs, else at the end of the heap (growing it, starting inside
+  // the trailing free run when there is one). The common cases of a frame -- nothing free (a
+  // new slot at the end) and one free run that fits exactly (a chain reusing the memory of a
+  // resource two passes back) -- skip the search.
+  template <class Runs>
+  [[gnu::always_inline]] inline std::uint64_t place_in(Runs& free, std::uint64_t bytes, const Alignment& alignment,
+                                                       std::uint32_t resource, bool& appended) {
+    appended = false;
+    if (free.empty() && bytes > 0) {
+      const std::uint64_t at = alignment.up(size);
+      if (at == size) {
+        size = at + bytes;
+        append_segment(at, Occupied{size, resource});
+        appended = true;
+        return at;
+      }
+    }
+    if (free.size() == 1) {
+      const auto only = free.begin();
+      const std::uint64_t at = Runs::begin_of(only);
+      if (Runs::end_of(only) - at == bytes && alignment.up(at) == at) {
+        index_erase<Runs>(at, at + bytes);
+        free.erase(only);
+        return at;
+      }
+    }
+    constexpr std::uint64_t none = ~0ull;
+    std::uint64_t best = none;
+    typename Runs::iterator run{};
+    if constexpr (std::is_same_v<Runs, RunTree>) {
+      // The first run by (size, address) from `bytes` up that fits once aligned.
+      for (auto k = by_size.lower_bound(FreeKey{bytes, 0}); k != by_size.end(); ++k) {
+        const std::uint64_t at = alignment.up(k->begin);
+        if (at + bytes <= k->begin + k->size) {
+          best = at;
+          run = free.find(k->begin);
+          break;
+        }
+      }
+    } else {
+      std::uint64_t best_size = none;
+      for (auto f = free.begin(); f != free.end(); ++f) {
+        const std::uint64_t at = alignment.up(Runs::begin_of(f));
+        if (at + bytes <= Runs::end_of(f) && Runs::end_of(f) - Runs::begin_of(f) < best_size) {
+          best = at;
+          best_size = Runs::end_of(f) - Runs::begin_of(f);
+          run = f;
+        }
+      }
+    }
+    if (best == none) {
+      const bool trailing = !free.empty() && Runs::end_of(std::prev(free.end())) == size;
+      if (trailing) {
+        run = std::prev(free.end());
+        best = alignment.up(Runs::begin_of(run));
+        index_erase<Runs>(Runs::begin_of(run), Runs::end_of(run));
+        Runs::set_end(run, best + bytes);
+      } else {
+        best = alignment.up(size);
+        run = free.insert(free.end(), size, best + bytes);
+      }
+      index_insert<Runs>(Runs::begin_of(run), Runs::end_of(run));
+      append_segment(size, Occupied{best + bytes, invalid_index});
+      size = best + bytes;
+    }
+    // Carve [best, best + bytes) out of the free run holding it.
+    const std::uint64_t whole_begin = Runs::begin_of(run), whole_end = Runs::end_of(run);
+    index_erase<Runs>(whole_begin, whole_end);
+    typename Runs::iterator after;
+    if (best > whole_begin) {
+      Runs::set_end(run, best);
+      index_insert<Runs>(whole_begin, best);
+      after = std::next(run);
+    } else {
+      after = free.erase(run);
+    }
+    if (best + bytes < whole_end) {
+      free.insert(after, best + bytes, whole_end);
+      index_insert<Runs>(best + bytes, whole_end);
+    }
+    return best;
+  }
+
+  template <class Runs>
+  [[gnu::always_inline]] inline void release_in(Runs& free, std::uint64_t offset, std::uint64_t bytes) {
+    const std::uint64_t begin = offset, end = offset + bytes;
+    // Past every free run (or none): join the last one or append, no search.
+    if (free.empty() || Runs::end_of(std::prev(free.end())) <= begin) {
+      if (!free.empty() && Runs::end_of(std::prev(free.end())) == begin) {
+        const auto last = std::prev(free.end());
+        index_erase<Runs>(Runs::begin_of(last), begin);
+        Runs::set_end(last, end);
+        index_insert<Runs>(Runs::begin_of(last), end);
+      } else {
+        free.insert(free.end(), begin, end);
+        index_insert<Runs>(begin, end);
+      }
+      return;
+    }
+    const auto next = free.upper_bound(begin);  // the first run after the released range
+    const bool join_previous = next != free.begin() && Runs::end_of(std::prev(next)) == begin;
+    const bool join_next = next != free.end() && Runs::begin_of(next) == end;
+    if (join_previous) {
+      const auto previous = std::prev(next);
+      const std::uint64_t previous_begin = Runs::begin_of(previous);
+      index_erase<Runs>(previous_begin, begin);
+      std::uint64_t joined_end = end;
+      if (join_next) {
+        joined_end = Runs::end_of(next);
+        index_erase<Runs>(end, joined_end);
+        free.erase(next);  // `previous` stays valid: it is before `next`
+      }
+      Runs::set_end(previous, joined_end);
+      index_insert<Runs>(previous_begin, joined_end);
+    } else if (join_next) {
+      const std::uint64_t next_end = Runs::end_of(next);
+      index_erase<Runs>(end, next_end);
+      free.move_begin(next, begin);
+      index_insert<Runs>(begin, next_end);
+    } else {
+      free.insert(next, begin, end);
+      index_insert<Runs>(begin, end);
+    }
+  }
+
+  template <class Segments>
+  [[gnu::always_inline]] inline void occupy_in(Segments& segments, std::uint64_t offset, std::uint64_t bytes,
+                                               std::uint32_t resource, std::vector<std::uint32_t>& previous,
+                                               std::size_t previous_begin) {
+    if (bytes == 0) return;
     const std::uint64_t end = offset + bytes;
-    auto first = std::partition_point(segments.begin(), segments.end(), [&](const Segment& s) { return s.end <= offset; });
-    if (bytes > 0 && first != segments.end() && first->begin == offset && first->end == end) {  // exactly one earlier occupant
-      if (first->occupant != invalid_index) previous.push_back(first->occupant);
-      first->occupant = resource;
+    auto first = segments.holding(offset);
+    Occupied& held = Segments::value(first);
+    if (Segments::begin_of(first) == offset && held.end == end) {  // exactly one earlier occupant
+      if (held.occupant != invalid_index) previous.push_back(held.occupant);
+      held.occupant = resource;
       return;
     }
     auto last = first;
-    for (; last != segments.end() && last->begin < end; ++last)
-      if (last->occupant != invalid_index &&
-          std::find(previous.begin() + std::ptrdiff_t(previous_begin), previous.end(), last->occupant) == previous.end())
-        previous.push_back(last->occupant);
-    Segment replacement[3];
-    std::size_t n = 0;
-    if (first != last && first->begin < offset) replacement[n++] = Segment{first->begin, offset, first->occupant};
-    replacement[n++] = Segment{offset, end, resource};
-    if (first != last && (last - 1)->end > end) replacement[n++] = Segment{end, (last - 1)->end, (last - 1)->occupant};
-    const auto at = first - segments.begin();
-    const auto removed = last - first;
-    // Overwrite in place where possible: erase + insert would move the tail twice.
-    if (std::ptrdiff_t(n) <= removed) {
-      std::copy(replacement, replacement + n, first);
-      segments.erase(first + std::ptrdiff_t(n), last);
-    } else {
-      std::copy(replacement, replacement + removed, first);
-      segments.insert(segments.begin() + at + removed, replacement + removed, replacement + n);
+    Occupied tail{};  // the last segment covered, whose bytes past `end` keep their occupant
+    for (; last != segments.end() && Segments::begin_of(last) < end; ++last) {
+      const Occupied& covered = Segments::value(last);
+      if (covered.occupant != invalid_index &&
+          std::find(previous.begin() + std::ptrdiff_t(previous_begin), previous.end(), covered.occupant) == previous.end())
+        previous.push_back(covered.occupant);
+      tail = covered;
     }
+    // The first entry becomes the piece before `offset`, or the new segment itself; the rest
+    // covered go, and the piece past `end` comes back.
+    typename Segments::iterator after;
+    if (Segments::begin_of(first) < offset) {
+      Segments::value(first).end = offset;
+      after = segments.erase(std::next(first), last);
+      after = std::next(segments.insert(after, offset, Occupied{end, resource}));
+    } else {
+      Segments::value(first) = Occupied{end, resource};
+      after = segments.erase(std::next(first), last);
+    }
+    if (tail.end > end) segments.insert(after, end, tail);
   }
 };
 
@@ -384,7 +719,7 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
   plan.heaps = std::move(state.memory.heaps);  // its capacity, from an earlier compile
   plan.heaps.clear();
   plan.from_device = device != nullptr;
-  std::vector<HeapBuilder>& heaps = scratch.heaps.heaps;
+  std::vector<std::unique_ptr<HeapBuilder>>& heaps = scratch.heaps.heaps;
   std::size_t heap_count = 0;  // heaps[heap_count..] are kept only for their arrays' capacity
   Sizer sizer(state.options, device);
   AliasGroups groups(scratch);
@@ -424,23 +759,18 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
     // The first heap that can take it: when there is one heap of this type, that one.
     const auto type = std::size_t(info.type);
     std::size_t heap = only_heap[type];
-    if (heap == none || (heaps[heap].type_bits & req->type_bits) == 0) {
+    if (heap == none || (heaps[heap]->type_bits & req->type_bits) == 0) {
       heap = 0;
-      while (heap < heap_count && !(heaps[heap].type == info.type && (heaps[heap].type_bits & req->type_bits) != 0))
+      while (heap < heap_count && !(heaps[heap]->type == info.type && (heaps[heap]->type_bits & req->type_bits) != 0))
         ++heap;
     }
     if (heap == heap_count) {
-      if (heap == heaps.size()) heaps.emplace_back();
-      HeapBuilder& fresh = heaps[heap];
-      fresh.type = info.type;
-      fresh.type_bits = req->type_bits;
-      fresh.size = 0;
-      fresh.free.clear();
-      fresh.segments.clear();
+      if (heap == heaps.size()) heaps.push_back(std::make_unique<HeapBuilder>());
+      heaps[heap]->reset(info.type, req->type_bits);
       ++heap_count;
       only_heap[type] = ++heaps_of_type[type] == 1 ? heap : none;
     }
-    HeapBuilder& h = heaps[heap];
+    HeapBuilder& h = *heaps[heap];
     h.type_bits &= req->type_bits;
     bool appended = false;
     const std::uint64_t offset = h.place(req->size, alignment, r, appended);
@@ -498,7 +828,7 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
     }
     if (aliasing)
       for (const std::uint32_t r : ending)
-        if (info_of[r].heap != invalid_index) heaps[info_of[r].heap].release(info_of[r].offset, info_of[r].bytes);
+        if (info_of[r].heap != invalid_index) heaps[info_of[r].heap]->release(info_of[r].offset, info_of[r].bytes);
   }
   state.barrier_begin[positions] = std::uint32_t(state.barriers.size());
 
@@ -514,8 +844,8 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
 
   groups.number(resources, scratch.alias_group_number);
   for (std::size_t h = 0; h < heap_count; ++h) {
-    plan.heaps.push_back(MemoryHeap{heaps[h].type, heaps[h].type_bits, heaps[h].size});
-    plan.aliased_bytes += heaps[h].size;
+    plan.heaps.push_back(MemoryHeap{heaps[h]->type, heaps[h]->type_bits, heaps[h]->size});
+    plan.aliased_bytes += heaps[h]->size;
   }
   state.memory = std::move(plan);
 }

@@ -994,7 +994,7 @@ namespace {
 // walking the order, place each transient at its first use into the smallest free run that
 // fits (else at the end of the heap, growing the trailing free run), free it after its last
 // use. Returns the offset of every transient (0 for the rest).
-std::vector<std::uint64_t> reference_offsets(const CompiledGraph& g) {
+std::vector<std::uint64_t> reference_offsets(const CompiledGraph& g, std::size_t* most_free_runs = nullptr) {
   struct Range {
     std::uint64_t begin, end;
   };
@@ -1044,6 +1044,7 @@ std::vector<std::uint64_t> reference_offsets(const CompiledGraph& g) {
           else merged.push_back(f);
         }
         free = merged;
+        if (most_free_runs) *most_free_runs = std::max(*most_free_runs, free.size());
       }
     }
   }
@@ -1079,73 +1080,106 @@ TEST_CASE("memory planner: fast paths place a chain in two alternating slots, on
                                             }()));
 }
 
-TEST_CASE("memory planner: random graphs of mixed sizes place exactly as plain best fit, without overlaps") {
-  std::mt19937 rng(7);
-  for (int trial = 0; trial < 300; ++trial) {
-    RenderGraph graph("mixed");
-    std::vector<TextureHandle> textures;
-    std::vector<BufferHandle> buffers;
-    const int n = std::uniform_int_distribution<int>(2, 40)(rng);
-    for (int i = 0; i < n; ++i) {
-      graph.add_pass("p" + std::to_string(i), [&](PassBuilder& b) {
-        const int reads = textures.empty() ? 0 : std::uniform_int_distribution<int>(0, 3)(rng);
-        for (int k = 0; k < reads; ++k) {
-          const auto j = std::uniform_int_distribution<std::size_t>(0, textures.size() - 1)(rng);
-          b.read(textures[j], TextureUse::Sampled);
-        }
-        if (!buffers.empty() && rng() % 2) b.read(buffers[rng() % buffers.size()], BufferUse::Uniform);
-        if (rng() % 4 == 0) {
-          buffers.push_back(b.write(b.create_buffer("b" + std::to_string(i), {.size = 256u * (1 + rng() % 40)}),
-                                    BufferUse::StorageWrite));
-        } else {
-          const std::uint32_t side = 32u << (rng() % 4);
-          const auto t = b.create_texture("t" + std::to_string(i), color_desc(side, side));
-          textures.push_back(b.write(t, TextureUse::StorageWrite));
-        }
-        if (rng() % 5 == 0) b.side_effect();
-      });
-    }
-    if (!textures.empty()) graph.mark_output(textures.back());
-    auto compiled = graph.compile();
-    REQUIRE(compiled.has_value());
-    const auto resources = compiled->resources();
-    const auto expected = reference_offsets(*compiled);
-    for (std::size_t r = 0; r < resources.size(); ++r) {
-      if (resources[r].heap == invalid_index) continue;
-      CHECK_MESSAGE(resources[r].offset == expected[r], "trial ", trial, ": ", resources[r].name);
-      for (std::size_t q = r + 1; q < resources.size(); ++q) {
-        const ResourceInfo &a = resources[r], &b = resources[q];
-        if (b.heap != a.heap) continue;
-        const bool live_together = a.first_use <= b.last_use && b.first_use <= a.last_use;
-        const bool overlap = a.offset < b.offset + b.bytes && b.offset < a.offset + a.bytes;
-        CHECK_FALSE_MESSAGE((live_together && overlap), a.name, " and ", b.name);
+namespace {
+
+// One random graph of `n` passes with textures of several sizes and buffers of many, each
+// pass reading up to three earlier textures. Checks every placement against plain best fit,
+// overlaps, and every takeover against painting bytes in placement order; returns how
+// fragmented it got (the most free runs the reference saw, the most segments of distinct last
+// owners at the end).
+void check_mixed_graph(std::mt19937& rng, int n, int trial, std::size_t& most_free_runs, std::size_t& segments,
+                       bool many_sizes = false) {
+  RenderGraph graph("mixed");
+  std::vector<TextureHandle> textures;
+  std::vector<BufferHandle> buffers;
+  for (int i = 0; i < n; ++i) {
+    graph.add_pass("p" + std::to_string(i), [&](PassBuilder& b) {
+      const int reads = textures.empty() ? 0 : std::uniform_int_distribution<int>(0, 3)(rng);
+      for (int k = 0; k < reads; ++k) {
+        const auto j = std::uniform_int_distribution<std::size_t>(0, textures.size() - 1)(rng);
+        b.read(textures[j], TextureUse::Sampled);
       }
-    }
-    // Takeovers: painting each resource's bytes in placement order (first use, then index),
-    // what a resource takes over is exactly who painted its bytes last, however the planner
-    // placed it (appended, an exact single run, best fit, a grown trailing run).
-    std::vector<std::uint32_t> placed;
-    for (std::uint32_t r = 0; r < resources.size(); ++r)
-      if (resources[r].heap != invalid_index) placed.push_back(r);
-    std::stable_sort(placed.begin(), placed.end(), [&](std::uint32_t a, std::uint32_t b) {
-      return resources[a].first_use < resources[b].first_use;
+      if (!buffers.empty() && rng() % 2) b.read(buffers[rng() % buffers.size()], BufferUse::Uniform);
+      if (rng() % 4 == 0) {
+        buffers.push_back(b.write(b.create_buffer("b" + std::to_string(i), {.size = 256u * (1 + rng() % 40)}),
+                                  BufferUse::StorageWrite));
+      } else {
+        // Four sizes, or sixteen (many sizes leave holes that fit little).
+        const std::uint32_t side = many_sizes ? 64u * (1 + rng() % 16) : 32u << (rng() % 4);
+        const auto t = b.create_texture("t" + std::to_string(i), color_desc(side, side));
+        textures.push_back(b.write(t, TextureUse::StorageWrite));
+      }
+      if (rng() % 5 == 0) b.side_effect();
     });
-    std::map<std::uint32_t, std::vector<std::uint32_t>> painted;  // heap -> owner per 256-byte unit
-    std::map<std::uint32_t, std::set<std::uint32_t>> taken;       // resource -> previous occupants
-    for (const std::uint32_t pos_pass : compiled->order())
-      for (const PlannedBarrier& b : compiled->barriers_before(pos_pass))
-        if (b.previous_occupant != invalid_index) taken[b.resource].insert(b.previous_occupant);
-    for (const std::uint32_t r : placed) {
-      const ResourceInfo& info = resources[r];
-      std::vector<std::uint32_t>& units = painted[info.heap];
-      const std::uint64_t begin = info.offset / 256, end = (info.offset + info.bytes + 255) / 256;
-      if (units.size() < end) units.resize(end, invalid_index);
-      std::set<std::uint32_t> expected_occupants;
-      for (std::uint64_t u = begin; u < end; ++u) {
-        if (units[u] != invalid_index) expected_occupants.insert(units[u]);
-        units[u] = r;
-      }
-      CHECK_MESSAGE(taken[r] == expected_occupants, "trial ", trial, ": takeovers of ", info.name);
+  }
+  if (!textures.empty()) graph.mark_output(textures.back());
+  auto compiled = graph.compile();
+  REQUIRE(compiled.has_value());
+  const auto resources = compiled->resources();
+  const auto expected = reference_offsets(*compiled, &most_free_runs);
+  for (std::size_t r = 0; r < resources.size(); ++r) {
+    if (resources[r].heap == invalid_index) continue;
+    CHECK_MESSAGE(resources[r].offset == expected[r], "trial ", trial, ": ", resources[r].name);
+    for (std::size_t q = r + 1; q < resources.size(); ++q) {
+      const ResourceInfo &a = resources[r], &b = resources[q];
+      if (b.heap != a.heap) continue;
+      const bool live_together = a.first_use <= b.last_use && b.first_use <= a.last_use;
+      const bool overlap = a.offset < b.offset + b.bytes && b.offset < a.offset + a.bytes;
+      CHECK_FALSE_MESSAGE((live_together && overlap), a.name, " and ", b.name);
     }
   }
+  // Takeovers: painting each resource's bytes in placement order (first use, then index),
+  // what a resource takes over is exactly who painted its bytes last, however the planner
+  // placed it (appended, an exact single run, best fit, a grown trailing run).
+  std::vector<std::uint32_t> placed;
+  for (std::uint32_t r = 0; r < resources.size(); ++r)
+    if (resources[r].heap != invalid_index) placed.push_back(r);
+  std::stable_sort(placed.begin(), placed.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return resources[a].first_use < resources[b].first_use;
+  });
+  std::map<std::uint32_t, std::vector<std::uint32_t>> painted;  // heap -> owner per 256-byte unit
+  std::map<std::uint32_t, std::set<std::uint32_t>> taken;       // resource -> previous occupants
+  for (const std::uint32_t pos_pass : compiled->order())
+    for (const PlannedBarrier& b : compiled->barriers_before(pos_pass))
+      if (b.previous_occupant != invalid_index) taken[b.resource].insert(b.previous_occupant);
+  for (const std::uint32_t r : placed) {
+    const ResourceInfo& info = resources[r];
+    std::vector<std::uint32_t>& units = painted[info.heap];
+    const std::uint64_t begin = info.offset / 256, end = (info.offset + info.bytes + 255) / 256;
+    if (units.size() < end) units.resize(end, invalid_index);
+    std::set<std::uint32_t> expected_occupants;
+    for (std::uint64_t u = begin; u < end; ++u) {
+      if (units[u] != invalid_index) expected_occupants.insert(units[u]);
+      units[u] = r;
+    }
+    CHECK_MESSAGE(taken[r] == expected_occupants, "trial ", trial, ": takeovers of ", info.name);
+  }
+  for (const auto& [heap, units] : painted) {
+    std::size_t runs = units.empty() ? 0 : 1;
+    for (std::size_t u = 1; u < units.size(); ++u) runs += units[u] != units[u - 1] ? 1 : 0;
+    segments = std::max(segments, runs);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("memory planner: random graphs of mixed sizes place exactly as plain best fit, without overlaps") {
+  std::mt19937 rng(7);
+  std::size_t most_free_runs = 0, segments = 0;
+  for (int trial = 0; trial < 300; ++trial)
+    check_mixed_graph(rng, std::uniform_int_distribution<int>(2, 40)(rng), trial, most_free_runs, segments);
+}
+
+TEST_CASE("memory planner: many live transients in a fragmented heap still place exactly as plain best fit") {
+  // Over a thousand passes reading any earlier texture, of sixteen sizes: many transients
+  // alive and a fragmented heap, with enough free runs and segments that the planner keeps
+  // them in search trees (from 32 free runs and 256 segments, frame_plan.cpp), and back in
+  // arrays as they shrink.
+  std::mt19937 rng(11);
+  std::size_t most_free_runs = 0, segments = 0;
+  for (int trial = 0; trial < 4; ++trial)
+    check_mixed_graph(rng, std::uniform_int_distribution<int>(1500, 2000)(rng), trial, most_free_runs, segments, true);
+  MESSAGE("most free runs ", most_free_runs, ", most segments ", segments);
+  CHECK(most_free_runs >= 48);
+  CHECK(segments >= 280);
 }
