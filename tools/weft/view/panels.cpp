@@ -76,8 +76,7 @@ void knob_widgets(Session& s, std::size_t material_index) {
   }
   if (!material.params.empty() && ImGui::SmallButton(("preset values##" + material.name).c_str())) {
     s.scene.materials[material_index].params = nlohmann::json::object();  // the preset decides every knob
-    s.dirty = true;
-    s.graph.reset();
+    s.scene_changed();
   }
 }
 
@@ -88,8 +87,7 @@ void scene_panel(Session& s) {
   int q = int(s.quality);
   if (ImGui::Combo("quality", &q, presets, 4)) {
     s.quality = Quality(q);
-    s.dirty = true;
-    s.graph.reset();
+    s.scene_changed();
   }
   if (ImGui::TreeNode("objects", "objects (%zu)", s.scene.objects.size())) {
     for (const auto& object : s.scene.objects)
@@ -105,7 +103,7 @@ void scene_panel(Session& s) {
       bool changed = ImGui::ColorEdit3(("base colour##" + material.name).c_str(), &m.base_color.x);
       changed |= ImGui::SliderFloat(("metallic##" + material.name).c_str(), &m.metallic, 0.0f, 1.0f);
       changed |= ImGui::SliderFloat(("roughness##" + material.name).c_str(), &m.roughness, 0.0f, 1.0f);
-      if (changed) s.dirty = true;
+      if (changed) s.scene_changed();
     } else {
       knob_widgets(s, i);
     }
@@ -117,6 +115,8 @@ void timing_panel(Session& s) {
   if (!ImGui::CollapsingHeader("Timings", ImGuiTreeNodeFlags_DefaultOpen)) return;
   ImGui::Text("UI %.1f fps | scene frame %.0f ms at %ux%u%s", s.ui_fps, s.last_render_ms, s.rendered_w, s.rendered_h,
               s.refined ? " (refined)" : " (moving: lower resolution)");
+  if (s.scene_busy_s > 0.5)  // a bake or a slow frame: the window keeps answering meanwhile
+    ImGui::TextColored(ImVec4(1, 0.8f, 0.3f, 1), "rendering the scene (bakes included): %.1f s", s.scene_busy_s);
   if (s.last_refine_ms >= 0) ImGui::Text("time to refined image after the camera stopped: %.0f ms", s.last_refine_ms);
   if (!s.frame_ms_history.empty())
     ImGui::PlotLines("scene ms", s.frame_ms_history.data(), int(s.frame_ms_history.size()), 0, nullptr, 0.0f,

@@ -65,8 +65,8 @@ Session::~Session() {
     ImGui_ImplGlfw_Shutdown();
     ImGui::DestroyContext();
   }
+  scene_renderer.reset();  // joins the render thread
   last_frame.reset();
-  renderer.reset();
   surface.reset();
   device.reset();
   adapter.reset();
@@ -84,8 +84,7 @@ Result<void> Session::load(bool first) {
   file_camera = loaded->camera;
   scene = std::move(*loaded);
   if (camera_changed) camera.emplace(CameraPose{scene.camera.position, scene.camera.target});
-  dirty = true;
-  graph.reset();
+  scene_changed();
   return {};
 }
 
@@ -127,7 +126,11 @@ void Session::set_knob(std::size_t material, const std::string& field, const nlo
     rest.erase(0, dot + 1);
   }
   (*at)[rest] = value;
-  dirty = true;
+  scene_changed();
+}
+
+void Session::scene_changed() {
+  snapshot.reset();
   graph.reset();
 }
 
@@ -175,10 +178,7 @@ void Session::handle_input(double dt) {
       screenshot = weft::format("weft-view-{}.png", screenshots_taken + 1);
     if (ImGui::IsKeyPressed(GLFW_KEY_ESCAPE, false)) quit = true;
   }
-  if (moved) {
-    last_motion = Clock::now();
-    dirty = true;
-  }
+  if (moved) last_motion = Clock::now();
 }
 
 // Runs script commands until one that needs frames to pass (wait, resize, screenshot...).
@@ -188,14 +188,15 @@ void Session::step_script() {
     --script_wait;
     return;
   }
+  if (waiting_refine) {
+    if (!refined) return;
+    waiting_refine = false;
+  }
   auto number = [](const std::string& s) { return std::stof(s); };
   while (script_next < script->commands.size()) {
     const ScriptCommand& c = script->commands[script_next++];
     const auto& a = c.args;
-    auto camera_moved = [&] {
-      last_motion = Clock::now();
-      dirty = true;
-    };
+    auto camera_moved = [&] { last_motion = Clock::now(); };
     if (c.name == "orbit") {
       camera->orbit(number(a[0]), number(a[1]));
       camera_moved();
@@ -226,7 +227,7 @@ void Session::step_script() {
     } else if (c.name == "quality") {
       if (auto q = renderer::quality_from_string(a[0]); q) {
         quality = *q;
-        dirty = true;
+        scene_changed();
       } else {
         error = weft::format("{}:{}: {}", script->path.string(), c.line, q.error().message);
         log::warn(error);
@@ -254,8 +255,9 @@ void Session::step_script() {
       script_wait = std::max(0, std::stoi(a[0]) - 1);
       return;
     } else if (c.name == "refine") {
-      last_motion = Clock::now() - std::chrono::hours(1);
-      if (!refined) dirty = true;
+      // Held until the full-resolution image of the current state arrives (0.25 s after the
+      // last camera move, as for a user who let go of the mouse).
+      waiting_refine = true;
       return;
     } else if (c.name == "screenshot") {
       screenshot = a[0];
@@ -280,26 +282,31 @@ void Session::step_script() {
   quit = true;  // the script ran out
 }
 
-Result<void> Session::render_scene(bool moving) {
-  int fw = 0, fh = 0;
-  glfwGetFramebufferSize(window, &fw, &fh);
-  if (fw <= 0 || fh <= 0) return {};
-  std::uint32_t w = std::uint32_t(fw), h = std::uint32_t(fh);
-  if (moving) {
-    w = std::max(16u, std::uint32_t(std::lround(fw * motion_scale)));
-    h = std::max(16u, std::uint32_t(std::lround(fh * motion_scale)));
+void Session::post_job(const Wanted& want) {
+  std::uint32_t w = std::uint32_t(want.width), h = std::uint32_t(want.height);
+  if (want.moving) {
+    w = std::max(16u, std::uint32_t(std::lround(want.width * motion_scale)));
+    h = std::max(16u, std::uint32_t(std::lround(want.height * motion_scale)));
   }
-  const CameraPose pose = camera->pose();
-  scene.camera.position = pose.position;
-  scene.camera.target = pose.target;
-  const auto t0 = Clock::now();
-  auto frame = renderer->render(scene, {.width = w, .height = h, .quality = quality});
-  if (!frame) {
-    error = weft::format("frame failed: {}", frame.error().what());
+  scene::Camera view = scene.camera;
+  view.position = want.pose.position;
+  view.target = want.pose.target;
+  scene_renderer->submit({.scene = snapshot, .camera = view, .width = w, .height = h, .quality = want.quality,
+                          .moving = want.moving, .describe = !want.moving && !graph, .id = ++posted_id});
+  if (posted && posted->moving && !want.moving && seconds_since(last_motion) < 3600) refine_requested = last_motion;
+  posted = want;
+  refined = false;
+}
+
+Result<void> Session::accept(RenderResult result, int window_w, int window_h) {
+  if (!result.frame) {
+    error = weft::format("frame failed: {}", result.error);
     log::warn(error);
-    dirty = false;  // the last good frame stays until the next change
-    return {};
+    if (result.id == posted_id) refined = !result.moving;  // nothing better is coming for this state
+    return {};  // the last good image stays
   }
+  auto& frame = *result.frame;
+  const std::uint32_t w = frame.image.width, h = frame.image.height;
   if (!last_frame || last_frame->size().width != w || last_frame->size().height != h) {
     last_frame.reset();
     auto t = device->create_texture({.label = "viewer frame", .size = {w, h, 1}, .format = gpu::Format::RGBA8Unorm,
@@ -307,30 +314,36 @@ Result<void> Session::render_scene(bool moving) {
     if (!t) return std::unexpected(t.error());
     last_frame.emplace(std::move(*t));
   }
-  if (auto ok = device->queue().write_texture(*last_frame, std::as_bytes(std::span(frame->image.pixels)), 0,
+  if (auto ok = device->queue().write_texture(*last_frame, std::as_bytes(std::span(frame.image.pixels)), 0,
                                               gpu::Access::CopySrc);
       !ok)
     return ok;
-  last_render_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  last_render_ms = result.ms;
   rendered_w = w;
   rendered_h = h;
   ++scene_frames;
-  if (moving) {
-    moving_scene_ms.push_back(last_render_ms);
+  if (result.moving) {
+    moving_scene_ms.push_back(result.ms);
     moving_pixels += std::uint64_t(w) * h;
+    moving_window_pixels += std::uint64_t(window_w) * std::uint64_t(window_h);
     // Aim the next moving frame at the budget: time grows about with the pixel count.
-    const double ratio = std::sqrt(options.motion_budget_ms / std::max(last_render_ms, 1.0));
+    const double ratio = std::sqrt(options.motion_budget_ms / std::max(result.ms, 1.0));
     motion_scale = float(std::clamp(double(motion_scale) * std::clamp(ratio, 0.5, 1.5), 0.1, 1.0));
   }
   if (error.rfind("frame failed", 0) == 0) error.clear();
-  stats = std::move(frame->stats);
-  passes = std::move(frame->passes);
-  warnings = std::move(frame->warnings);
-  frame_ms_history.push_back(float(last_render_ms));
+  stats = std::move(frame.stats);
+  passes = std::move(frame.passes);
+  warnings = std::move(frame.warnings);
+  if (result.graph) graph = std::move(result.graph);
+  frame_ms_history.push_back(float(result.ms));
   if (frame_ms_history.size() > 120) frame_ms_history.erase(frame_ms_history.begin());
-  if (!graph && !moving) {
-    auto report = renderer->describe(scene, {.width = w, .height = h, .quality = quality});
-    if (report) graph = std::move(*report);
+  if (result.id == posted_id && !result.moving) {
+    refined = true;
+    if (refine_requested != Clock::time_point{}) {
+      last_refine_ms = std::chrono::duration<double, std::milli>(Clock::now() - refine_requested).count();
+      refine_ms.push_back(last_refine_ms);
+      refine_requested = {};
+    }
   }
   return {};
 }
@@ -468,12 +481,12 @@ int run(const ViewOptions& options) {
     return 1;
   }
   s.ui.emplace(std::move(*ui));
-  auto renderer = renderer::Renderer::create(*s.device);
-  if (!renderer) {
-    std::fprintf(stderr, "weft view: %s\n", renderer.error().what().c_str());
+  auto scene_renderer = SceneRenderer::start(*s.adapter);
+  if (!scene_renderer) {
+    std::fprintf(stderr, "weft view: %s\n", scene_renderer.error().what().c_str());
     return 1;
   }
-  s.renderer.emplace(std::move(*renderer));
+  s.scene_renderer.emplace(std::move(*scene_renderer));
   log::info(weft::format("viewing {} on {} ({})", options.scene.string(), s.adapter->info().name,
                          gpu::to_string(s.surface->configuration().present_mode)));
 
@@ -495,23 +508,16 @@ int run(const ViewOptions& options) {
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
     s.handle_input(dt);
-    if ((fw != int(s.rendered_w) || fh != int(s.rendered_h)) && s.refined) s.dirty = true;  // resized
     const bool moving = seconds_since(s.last_motion) < 0.25;
-    if (s.dirty || (!s.refined && !moving)) {
-      if (!moving && !s.refined && s.refine_requested == Clock::time_point{}) s.refine_requested = s.last_motion;
-      if (auto ok = s.render_scene(moving); !ok) {
+    if (!s.snapshot) s.snapshot = std::make_shared<const scene::Scene>(s.scene);
+    const Session::Wanted want{s.snapshot.get(), s.camera->pose(), fw, fh, s.quality, moving};
+    if (!s.posted || want != *s.posted) s.post_job(want);
+    if (auto result = s.scene_renderer->take())
+      if (auto ok = s.accept(std::move(*result), fw, fh); !ok) {
         std::fprintf(stderr, "weft view: %s\n", ok.error().what().c_str());
         return 1;
       }
-      s.dirty = false;
-      s.refined = !moving && s.rendered_w == std::uint32_t(fw) && s.rendered_h == std::uint32_t(fh);
-      if (s.refined && s.refine_requested != Clock::time_point{} &&
-          seconds_since(s.refine_requested) < 3600) {
-        s.last_refine_ms = std::chrono::duration<double, std::milli>(Clock::now() - s.last_motion).count();
-        s.refine_ms.push_back(s.last_refine_ms);
-        s.refine_requested = {};
-      }
-    }
+    s.scene_busy_s = s.scene_renderer->busy_seconds();
     s.draw_ui();
     ImGui::Render();
     if (auto ok = s.present_frame(); !ok) {
@@ -531,7 +537,8 @@ int run(const ViewOptions& options) {
       fps_window = Clock::now();
       fps_frames = 0;
     }
-    if (!s.dirty && s.refined && !s.script && seconds_since(s.last_motion) > 1.0) glfwWaitEventsTimeout(0.05);
+    // Idle (nothing moving, nothing rendering): wait for input instead of spinning.
+    if (s.refined && !s.script && seconds_since(s.last_motion) > 1.0) glfwWaitEventsTimeout(0.05);
   }
   (void)s.device->queue().wait_idle();
   std::printf("weft view: %llu UI frames, %llu scene frames, %d screenshot(s)\n",
@@ -540,17 +547,18 @@ int run(const ViewOptions& options) {
   if (!s.moving_scene_ms.empty()) {
     auto sorted = s.moving_scene_ms;
     std::sort(sorted.begin(), sorted.end());
-    const double pixels = double(s.moving_pixels) / double(s.moving_scene_ms.size());
+    const double share = double(s.moving_pixels) / double(std::max<std::uint64_t>(s.moving_window_pixels, 1));
     std::printf("weft view: while the camera moved: %llu UI frames in %.2f s (%.1f fps); scene frames median %.0f ms "
                 "at %.0f%% of the window's pixels on average\n",
                 static_cast<unsigned long long>(s.moving_ui_frames), s.moving_seconds,
                 s.moving_seconds > 0 ? double(s.moving_ui_frames) / s.moving_seconds : 0.0, sorted[sorted.size() / 2],
-                100.0 * pixels / (double(fw) * double(fh)));
+                100.0 * share);
   }
   if (!s.refine_ms.empty()) {
     auto sorted = s.refine_ms;
     std::sort(sorted.begin(), sorted.end());
-    std::printf("weft view: refined full-resolution image %.0f ms (median of %zu) after the camera stopped\n",
+    std::printf("weft view: refined full-resolution image %.0f ms (median of %zu) after the camera stopped "
+                "(0.25 s of it waits to see that it stopped)\n",
                 sorted[sorted.size() / 2], sorted.size());
   }
   if (s.instance->validation_enabled()) {

@@ -12,6 +12,7 @@ module;
 #include <string>
 #include <vector>
 #include <chrono>
+#include <thread>
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
 struct GLFWwindow;
@@ -30,6 +31,7 @@ export namespace weft::viewer {
 struct CameraPose {
   glm::vec3 position{0.0f, 1.0f, 5.0f};
   glm::vec3 target{0.0f};
+  bool operator==(const CameraPose&) const = default;
 };
 class OrbitCamera {
  public:
@@ -117,6 +119,44 @@ gpu::NativeWindow native_window(GLFWwindow* window);
 
 using Clock = std::chrono::steady_clock;
 
+// One scene frame to make: the scene (shared, immutable; a new pointer when it changed), the
+// camera, the size (smaller while the camera moves) and the preset.
+struct RenderJob {
+  std::shared_ptr<const scene::Scene> scene;
+  scene::Camera camera;
+  std::uint32_t width = 0, height = 0;
+  Quality quality = Quality::Medium;
+  bool moving = false;
+  bool describe = false;  // also compile the graph for the Graph panel
+  std::uint64_t id = 0;
+};
+struct RenderResult {
+  std::uint64_t id = 0;
+  bool moving = false;
+  double ms = 0.0;
+  std::optional<renderer::Frame> frame;  // none when it failed: `error` says why
+  std::optional<renderer::GraphReport> graph;
+  std::string error;
+};
+// Renders jobs on its own thread and device (render_thread.cpp); the newest job wins.
+class SceneRenderer {
+ public:
+  static Result<SceneRenderer> start(const gpu::Adapter& adapter);
+  SceneRenderer(SceneRenderer&&) noexcept;
+  SceneRenderer& operator=(SceneRenderer&&) noexcept;
+  ~SceneRenderer();
+  void submit(RenderJob job);
+  std::optional<RenderResult> take();
+  [[nodiscard]] double busy_seconds() const;  // how long the current job has run (0 when idle)
+  [[nodiscard]] bool idle() const;
+
+ private:
+  SceneRenderer() = default;
+  struct Shared;
+  std::shared_ptr<Shared> shared_;
+  std::thread thread_;
+};
+
 // Everything one viewer session owns. Members are declared in the order they must be built
 // (and are destroyed in reverse): the window outlives the surface, the device the renderer.
 struct Session {
@@ -126,8 +166,8 @@ struct Session {
   std::optional<gpu::Surface> surface;
   std::optional<gpu::Adapter> adapter;
   std::optional<gpu::Device> device;
-  std::optional<renderer::Renderer> renderer;
   std::optional<UiRenderer> ui;
+  std::optional<SceneRenderer> scene_renderer;
   std::optional<RenderGraph> present_graph;
   gpu::Format surface_format = gpu::Format::BGRA8Unorm;
 
@@ -137,13 +177,26 @@ struct Session {
   std::optional<OrbitCamera> camera;
   Quality quality = Quality::Medium;
 
+  std::shared_ptr<const scene::Scene> snapshot;  // what the render thread sees; null: stale
   std::optional<gpu::Texture> last_frame;  // the last scene image (RGBA8, sRGB-encoded)
-  bool dirty = true;                        // the scene, camera, knobs or size changed
-  bool refined = false;                     // last_frame is at full resolution and current
+  // The last job handed to the render thread, to post a new one only when something changed.
+  struct Wanted {
+    const scene::Scene* scene = nullptr;
+    CameraPose pose;
+    int width = 0, height = 0;
+    Quality quality = Quality::Medium;
+    bool moving = false;
+    bool operator==(const Wanted&) const = default;
+  };
+  std::optional<Wanted> posted;
+  std::uint64_t posted_id = 0;
+  bool refined = false;         // last_frame is the full-resolution image of what is wanted now
+  bool waiting_refine = false;  // the script's `refine`: hold the script until refined
   Clock::time_point last_motion = Clock::now() - std::chrono::hours(1);
   float motion_scale = 0.5f;                // dynamic resolution while the camera moves
   std::uint32_t rendered_w = 0, rendered_h = 0;
   double last_render_ms = 0.0;
+  double scene_busy_s = 0.0;  // how long the render thread has worked on the current job
   Clock::time_point refine_requested{};     // for the time-to-refined measurement
   double last_refine_ms = -1.0;
 
@@ -161,7 +214,7 @@ struct Session {
   std::uint64_t moving_ui_frames = 0;
   double moving_seconds = 0.0;
   std::vector<double> moving_scene_ms;
-  std::uint64_t moving_pixels = 0;
+  std::uint64_t moving_pixels = 0, moving_window_pixels = 0;
   std::vector<double> refine_ms;
 
   // The script, if any.
@@ -178,7 +231,9 @@ struct Session {
   void poll_reload();
   void handle_input(double dt);
   void step_script();
-  Result<void> render_scene(bool moving);
+  void scene_changed();  // a knob, material, preset or reload: a new snapshot, a new graph
+  void post_job(const Wanted& want);
+  Result<void> accept(RenderResult result, int window_w, int window_h);
   Result<void> present_frame();
   Result<void> save_screenshot(const gpu::Texture& texture, const std::filesystem::path& path);
   void draw_ui();  // panels.cpp

@@ -1,0 +1,119 @@
+// Scene frames on a thread of their own, with a device of their own: a showcase frame takes
+// hundreds of milliseconds on lavapipe (seconds with a bake), and the window must keep
+// answering meanwhile. Two devices share nothing that Vulkan would need locked (queues,
+// command pools); the image crosses over as pixels, which the UI thread uploads.
+module;
+#include <chrono>
+#include <condition_variable>
+#include <expected>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <utility>
+module weft.viewer;
+import weft.core;
+import weft.gpu;
+import weft.scene;
+import weft.renderer;
+
+namespace weft::viewer::detail {
+
+struct SceneRenderer::Shared {
+  std::mutex mutex;
+  std::condition_variable wake;
+  std::optional<RenderJob> pending;
+  std::optional<RenderResult> result;
+  bool stop = false;
+  bool busy = false;
+  Clock::time_point busy_since{};
+};
+
+Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
+  auto device = adapter.request_device({.label = "weft view scene"});
+  if (!device) return std::unexpected(device.error());
+  SceneRenderer r;
+  r.shared_ = std::make_shared<Shared>();
+  auto owned = std::make_shared<gpu::Device>(std::move(*device));
+  auto renderer = renderer::Renderer::create(*owned);
+  if (!renderer) return std::unexpected(renderer.error());
+  r.thread_ = std::thread([shared = r.shared_, owned, made = std::make_shared<renderer::Renderer>(std::move(*renderer))]() mutable {
+    std::shared_ptr<const scene::Scene> source;
+    scene::Scene scene;  // the thread's copy; only the camera changes between versions
+    while (true) {
+      RenderJob job;
+      {
+        std::unique_lock lock(shared->mutex);
+        shared->wake.wait(lock, [&] { return shared->stop || shared->pending; });
+        if (shared->stop) break;
+        job = std::move(*shared->pending);
+        shared->pending.reset();
+        shared->busy = true;
+        shared->busy_since = Clock::now();
+      }
+      if (job.scene != source) {
+        source = job.scene;
+        scene = *source;
+      }
+      scene.camera = job.camera;
+      RenderResult result{.id = job.id, .moving = job.moving};
+      const auto t0 = Clock::now();
+      const renderer::RenderOptions options{.width = job.width, .height = job.height, .quality = job.quality};
+      auto frame = made->render(scene, options);
+      result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+      if (frame) {
+        result.frame = std::move(*frame);
+        if (job.describe)
+          if (auto report = made->describe(scene, options)) result.graph = std::move(*report);
+      } else {
+        result.error = frame.error().what();
+      }
+      std::lock_guard lock(shared->mutex);
+      shared->result = std::move(result);
+      shared->busy = false;
+    }
+    made.reset();  // the renderer's GPU objects go before their device
+    (void)owned->queue().wait_idle();
+    owned.reset();
+  });
+  return r;
+}
+
+SceneRenderer::SceneRenderer(SceneRenderer&&) noexcept = default;
+SceneRenderer& SceneRenderer::operator=(SceneRenderer&&) noexcept = default;
+SceneRenderer::~SceneRenderer() {
+  if (!shared_) return;
+  {
+    std::lock_guard lock(shared_->mutex);
+    shared_->stop = true;
+  }
+  shared_->wake.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void SceneRenderer::submit(RenderJob job) {
+  {
+    std::lock_guard lock(shared_->mutex);
+    shared_->pending = std::move(job);  // a newer job replaces one not started yet
+  }
+  shared_->wake.notify_one();
+}
+
+std::optional<RenderResult> SceneRenderer::take() {
+  std::lock_guard lock(shared_->mutex);
+  return std::exchange(shared_->result, std::nullopt);
+}
+
+double SceneRenderer::busy_seconds() const {
+  std::lock_guard lock(shared_->mutex);
+  if (!shared_->busy) return 0.0;
+  return std::chrono::duration<double>(Clock::now() - shared_->busy_since).count();
+}
+
+bool SceneRenderer::idle() const {
+  std::lock_guard lock(shared_->mutex);
+  return !shared_->busy && !shared_->pending;
+}
+
+}  // namespace weft::viewer::detail
