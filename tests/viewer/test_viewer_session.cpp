@@ -7,9 +7,11 @@
 #include <array>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 #include <unistd.h>
 import weft.core;
 import weft.image;
@@ -205,4 +207,41 @@ TEST_CASE("hot reload: a changed colour shows, invalid JSON is reported and the 
   CHECK(difference(shot("b.png"), shot("c.png")).max == 0);
   // Fixed again: back to the first image.
   CHECK(difference(shot("a.png"), shot("d.png")).max <= 1);
+}
+
+TEST_CASE("compare with reference: the reference setting against itself is exact, a coarse skin LUT is not") {
+  require_display();
+  const std::string skin = R"(, "skin": {"type": "skin", "albedo": [0.84, 0.6, 0.5], "mm_per_unit": 100})";
+  const std::string skin_ball =
+      R"(, {"name": "skin ball", "mesh": "ball", "material": "skin", "transform": {"translation": [0.45, 0.3, 0.2]}})";
+  write(scratch() / "compare.json", ball_scene("[0.8, 0.1, 0.05]", skin, skin_ball));
+  const fs::path same = scratch() / "overlay_same.png", coarse = scratch() / "overlay_coarse.png";
+  write(scratch() / "compare.txt", "ui off\nknob skin reference true\nrefine\ncompare skin\noverlay on\nscreenshot " +
+                                   same.string() + "\noverlay off\n"
+                                   "knob skin reference false\nknob skin lut.size 4\nknob skin lut.samples 4\nrefine\n"
+                                   "compare skin\noverlay on\nscreenshot " + coarse.string() + "\nquit\n");
+  auto r = run(weft_cli() + " view " + (scratch() / "compare.json").string() + " --size 160x120 --quality low --script " +
+               (scratch() / "compare.txt").string());
+  INFO(r.output);
+  REQUIRE(r.code == 0);
+  std::vector<double> rmse;
+  for (std::size_t at = r.output.find("compare skin (skin): RMSE "); at != std::string::npos;
+       at = r.output.find("compare skin (skin): RMSE ", at + 1))
+    rmse.push_back(std::stod(r.output.substr(at + std::strlen("compare skin (skin): RMSE "))));
+  REQUIRE(rmse.size() == 2);
+  CHECK(rmse[0] == 0.0);  // the reference against itself
+  CHECK(r.output.find("PSNR inf dB") != std::string::npos);
+  CHECK(rmse[1] > 1e-4);  // a 4x4 LUT of 4 samples differs from the brute-force scattering
+  CHECK(rmse[1] < 0.5);
+  // The difference overlay: black where the images agree, so all black for the first.
+  auto brightest = [](const fs::path& path) {
+    auto img = weft::image::load_png(path);
+    REQUIRE(img);
+    int most = 0;
+    for (std::size_t i = 0; i < img->pixels.size(); ++i)
+      if (i % img->channels < 3) most = std::max(most, int(img->pixels[i]));
+    return most;
+  };
+  CHECK(brightest(same) == 0);
+  CHECK(brightest(coarse) > 0);
 }

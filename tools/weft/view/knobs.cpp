@@ -15,6 +15,15 @@ namespace weft::viewer::detail {
 std::string material_type_name(const scene::Material& material) { return std::string(scene::to_string(material.type)); }
 bool is_standard(const scene::Material& material) { return material.type == scene::MaterialType::Standard; }
 
+nlohmann::json reference_values(const scene::Material& material, std::string* why) {
+  for (const auto& study : tradeoff::studies()) {
+    if (study.material != material.type) continue;
+    if (why) *why = study.reference_why;
+    return study.reference.values;
+  }
+  return nullptr;
+}
+
 std::vector<UiKnob> knobs_for(const scene::Material& material, Quality quality) {
   std::vector<UiKnob> out;
   for (const auto& study : tradeoff::studies()) {

@@ -74,6 +74,19 @@ void knob_widgets(Session& s, std::size_t material_index) {
     }
     if (ImGui::IsItemHovered() && !knob.meaning.empty()) ImGui::SetTooltip("%s", knob.meaning.c_str());
   }
+  if (!reference_values(material).is_null()) {
+    if (ImGui::SmallButton(("compare with reference##" + material.name).c_str())) s.request_comparison(material_index);
+    if (s.comparison && s.comparison->material == material_index) {
+      if (s.comparison->metrics)
+        ImGui::Text("RMSE %.5f  PSNR %.2f dB", s.comparison->metrics->rmse, s.comparison->metrics->psnr);
+      else
+        ImGui::TextDisabled("rendering the reference at this camera...");
+      ImGui::Checkbox(("difference overlay##" + material.name).c_str(), &s.comparison->overlay);
+      if (ImGui::IsItemHovered())
+        ImGui::SetTooltip("largest channel difference: black 0, blue, red, yellow, white >= 0.1");
+      ImGui::TextWrapped("reference: %s", s.comparison->why.c_str());
+    }
+  }
   if (!material.params.empty() && ImGui::SmallButton(("preset values##" + material.name).c_str())) {
     s.scene.materials[material_index].params = nlohmann::json::object();  // the preset decides every knob
     s.scene_changed();

@@ -57,7 +57,7 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
         scene = *source;
       }
       scene.camera = job.camera;
-      RenderResult result{.id = job.id, .moving = job.moving};
+      RenderResult result{.id = job.id, .moving = job.moving, .reference = job.reference};
       const auto t0 = Clock::now();
       const renderer::RenderOptions options{.width = job.width, .height = job.height, .quality = job.quality};
       auto frame = made->render(scene, options);

@@ -29,7 +29,8 @@ const std::map<std::string, Arity, std::less<>>& commands() {
       {"resize", {2, 2, "resize W H"}},         {"minimize", {0, 0, "minimize"}},
       {"restore", {0, 0, "restore"}},           {"wait", {1, 1, "wait FRAMES"}},
       {"refine", {0, 0, "refine"}},             {"screenshot", {1, 1, "screenshot PATH"}},
-      {"copy", {2, 2, "copy FROM TO"}},         {"quit", {0, 0, "quit"}},
+      {"copy", {2, 2, "copy FROM TO"}},         {"compare", {1, 1, "compare MATERIAL"}},
+      {"overlay", {1, 1, "overlay on|off"}},         {"quit", {0, 0, "quit"}},
   };
   return table;
 }
@@ -75,7 +76,8 @@ Result<Script> parse_script(const std::filesystem::path& path, const std::string
     if (n == "resize" && (std::stoi(command.args[0]) < 1 || std::stoi(command.args[1]) < 1 ||
                           std::stoi(command.args[0]) > 16384 || std::stoi(command.args[1]) > 16384))
       return bad("resize needs sizes within 1..16384");
-    if (n == "ui" && command.args[0] != "on" && command.args[0] != "off") return bad("ui takes on or off");
+    if ((n == "ui" || n == "overlay") && command.args[0] != "on" && command.args[0] != "off")
+      return bad(n + " takes on or off");
     if (n == "knob" && !nlohmann::json::accept(command.args[2]))
       return bad("knob value '" + command.args[2] + "' is not JSON (numbers, true/false, or \"quoted\" text)");
     script.commands.push_back(std::move(command));

@@ -192,6 +192,10 @@ void Session::step_script() {
     if (!refined) return;
     waiting_refine = false;
   }
+  if (waiting_compare) {
+    if (comparison && !comparison->metrics) return;
+    waiting_compare = false;
+  }
   auto number = [](const std::string& s) { return std::stof(s); };
   while (script_next < script->commands.size()) {
     const ScriptCommand& c = script->commands[script_next++];
@@ -234,6 +238,8 @@ void Session::step_script() {
       }
     } else if (c.name == "ui") {
       show_ui = a[0] == "on";
+    } else if (c.name == "overlay") {
+      if (comparison) comparison->overlay = a[0] == "on";
     } else if (c.name == "resize") {
       glfwSetWindowSize(window, std::stoi(a[0]), std::stoi(a[1]));
       script_wait = 2;
@@ -274,6 +280,17 @@ void Session::step_script() {
         std::filesystem::last_write_time(a[1], std::filesystem::file_time_type::clock::now(), ec);
       }
       return;
+    } else if (c.name == "compare") {
+      auto it = std::find_if(scene.materials.begin(), scene.materials.end(), [&](auto& m) { return m.name == a[0]; });
+      if (it == scene.materials.end() || reference_values(*it).is_null()) {
+        error = weft::format("{}:{}: no material '{}' with a reference setting in the scene", script->path.string(),
+                             c.line, a[0]);
+        log::warn(error);
+        continue;
+      }
+      request_comparison(std::size_t(it - scene.materials.begin()));
+      waiting_compare = true;
+      return;
     } else if (c.name == "quit") {
       quit = true;
       return;
@@ -296,9 +313,61 @@ void Session::post_job(const Wanted& want) {
   if (posted && posted->moving && !want.moving && seconds_since(last_motion) < 3600) refine_requested = last_motion;
   posted = want;
   refined = false;
+  if (comparison) {  // the view changed: compare again once it is refined
+    comparison->posted = false;
+    comparison->metrics.reset();
+    comparison->overlay_texture.reset();
+  }
+}
+
+void Session::request_comparison(std::size_t material) {
+  Comparison c;
+  c.material = material;
+  c.type = material_type_name(scene.materials.at(material));
+  c.reference = reference_values(scene.materials[material], &c.why);
+  const bool overlay = comparison && comparison->overlay;
+  comparison = std::move(c);
+  comparison->overlay = overlay;
+}
+
+Result<void> Session::update_comparison() {
+  if (!comparison || comparison->posted || !refined || !refined_image || !posted) return {};
+  scene::Camera view = scene.camera;
+  view.position = posted->pose.position;
+  view.target = posted->pose.target;
+  scene_renderer->submit({.scene = with_values(scene, comparison->type, comparison->reference), .camera = view,
+                          .width = refined_image->width, .height = refined_image->height, .quality = posted->quality,
+                          .reference = true, .id = posted_id});
+  comparison->posted = true;
+  comparison->against = posted_id;
+  return {};
 }
 
 Result<void> Session::accept(RenderResult result, int window_w, int window_h) {
+  if (result.reference) {
+    if (!comparison || !comparison->posted || comparison->against != result.id || result.id != posted_id) return {};
+    if (!result.frame) {
+      error = weft::format("reference frame failed: {}", result.error);
+      comparison.reset();
+      return {};
+    }
+    auto metrics = compare_images(*refined_image, result.frame->image);
+    if (!metrics) return std::unexpected(metrics.error());
+    const auto& o = metrics->overlay;
+    auto t = device->create_texture({.label = "viewer difference", .size = {o.width, o.height, 1},
+                                     .format = gpu::Format::RGBA8Unorm,
+                                     .usage = gpu::TextureUsage::CopySrc | gpu::TextureUsage::CopyDst});
+    if (!t) return std::unexpected(t.error());
+    if (auto ok = device->queue().write_texture(*t, std::as_bytes(std::span(o.pixels)), 0, gpu::Access::CopySrc); !ok)
+      return ok;
+    comparison->overlay_texture.emplace(std::move(*t));
+    std::printf("compare %s (%s): RMSE %.6f, PSNR %.2f dB against its reference (%s)\n",
+                scene.materials.at(comparison->material).name.c_str(), comparison->type.c_str(), metrics->rmse,
+                metrics->psnr, comparison->reference.dump().c_str());
+    std::fflush(stdout);
+    comparison->metrics = std::move(*metrics);
+    return {};
+  }
   if (!result.frame) {
     error = weft::format("frame failed: {}", result.error);
     log::warn(error);
@@ -339,6 +408,7 @@ Result<void> Session::accept(RenderResult result, int window_w, int window_h) {
   if (frame_ms_history.size() > 120) frame_ms_history.erase(frame_ms_history.begin());
   if (result.id == posted_id && !result.moving) {
     refined = true;
+    refined_image = frame.image;
     if (refine_requested != Clock::time_point{}) {
       last_refine_ms = std::chrono::duration<double, std::milli>(Clock::now() - refine_requested).count();
       refine_ms.push_back(last_refine_ms);
@@ -382,8 +452,10 @@ Result<void> Session::present_frame() {
     struct Blit {
       TextureHandle src, dst;
     };
-    const TextureHandle image = frame_graph.import_texture("viewer frame", &*last_frame, gpu::Access::CopySrc);
-    const bool same_size = last_frame->size() == target.size();
+    const bool overlay = comparison && comparison->overlay && comparison->overlay_texture;
+    const gpu::Texture& shown = overlay ? *comparison->overlay_texture : *last_frame;
+    const TextureHandle image = frame_graph.import_texture("viewer frame", &shown, gpu::Access::CopySrc);
+    const bool same_size = shown.size() == target.size();
     auto& blit = frame_graph.add_pass<Blit>(
         "present_blit",
         [&](PassBuilder& b, Blit& d) {
@@ -518,6 +590,10 @@ int run(const ViewOptions& options) {
         return 1;
       }
     s.scene_busy_s = s.scene_renderer->busy_seconds();
+    if (auto ok = s.update_comparison(); !ok) {
+      std::fprintf(stderr, "weft view: %s\n", ok.error().what().c_str());
+      return 1;
+    }
     s.draw_ui();
     ImGui::Render();
     if (auto ok = s.present_frame(); !ok) {

@@ -21,6 +21,7 @@ import weft.core;
 import weft.gpu;
 import weft.graph;
 import weft.scene;
+import weft.image;
 import weft.renderer;
 
 export namespace weft::viewer {
@@ -57,6 +58,7 @@ class OrbitCamera {
 //   knob MATERIAL FIELD VALUE   (VALUE is JSON: 32, 0.5, true, "adaptive")
 //   quality low|medium|high|reference | ui on|off | resize W H | minimize | restore
 //   wait FRAMES | refine | screenshot PATH | copy FROM TO | quit
+//   compare MATERIAL (its feature's reference at this camera: RMSE, PSNR) | overlay on|off
 struct ScriptCommand {
   std::string name;
   std::vector<std::string> args;
@@ -111,6 +113,28 @@ struct UiKnob {
   nlohmann::json preset;  // the value the quality preset gives when the material leaves it unset
 };
 std::vector<UiKnob> knobs_for(const scene::Material& material, Quality quality);
+// The knob values of the feature's reference setting (null when it has none) and why.
+nlohmann::json reference_values(const scene::Material& material, std::string* why = nullptr);
+
+// compare.cpp: a copy of `source` whose materials of `type` take `values` (dotted fields).
+std::shared_ptr<const scene::Scene> with_values(const scene::Scene& source, const std::string& type,
+                                                const nlohmann::json& values);
+struct ComparisonMetrics {
+  double rmse = 0.0, psnr = 0.0;  // sRGB-encoded RGB in [0, 1], as shown
+  image::Image8 overlay;          // false colour of the largest channel difference
+};
+Result<ComparisonMetrics> compare_images(const image::Image8& current, const image::Image8& reference);
+// The feature whose reference is being compared with, and what came of it.
+struct Comparison {
+  std::size_t material = 0;
+  std::string type, why;
+  nlohmann::json reference;
+  bool posted = false;                   // the reference job is with the render thread
+  std::uint64_t against = 0;             // posted_id of the refined image it compares with
+  std::optional<ComparisonMetrics> metrics;
+  bool overlay = false;
+  std::optional<gpu::Texture> overlay_texture;
+};
 std::string material_type_name(const scene::Material& material);
 bool is_standard(const scene::Material& material);
 
@@ -128,11 +152,13 @@ struct RenderJob {
   Quality quality = Quality::Medium;
   bool moving = false;
   bool describe = false;  // also compile the graph for the Graph panel
+  bool reference = false;  // the comparison's reference image, not a frame to show
   std::uint64_t id = 0;
 };
 struct RenderResult {
   std::uint64_t id = 0;
   bool moving = false;
+  bool reference = false;
   double ms = 0.0;
   std::optional<renderer::Frame> frame;  // none when it failed: `error` says why
   std::optional<renderer::GraphReport> graph;
@@ -192,6 +218,9 @@ struct Session {
   std::uint64_t posted_id = 0;
   bool refined = false;         // last_frame is the full-resolution image of what is wanted now
   bool waiting_refine = false;  // the script's `refine`: hold the script until refined
+  bool waiting_compare = false;  // the script's `compare`: hold it until the metrics are in
+  std::optional<image::Image8> refined_image;  // the last refined frame, for comparisons
+  std::optional<Comparison> comparison;
   Clock::time_point last_motion = Clock::now() - std::chrono::hours(1);
   float motion_scale = 0.5f;                // dynamic resolution while the camera moves
   std::uint32_t rendered_w = 0, rendered_h = 0;
@@ -231,7 +260,9 @@ struct Session {
   void poll_reload();
   void handle_input(double dt);
   void step_script();
-  void scene_changed();  // a knob, material, preset or reload: a new snapshot, a new graph
+  void scene_changed();
+  void request_comparison(std::size_t material);
+  Result<void> update_comparison();  // posts the reference job once the view is refined  // a knob, material, preset or reload: a new snapshot, a new graph
   void post_job(const Wanted& want);
   Result<void> accept(RenderResult result, int window_w, int window_h);
   Result<void> present_frame();
