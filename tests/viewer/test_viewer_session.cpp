@@ -72,6 +72,14 @@ std::string ball_scene(const std::string& ball_color, const std::string& extra_m
               {"name": "floor", "mesh": "floor", "material": "floor"})" + extra_object + R"(]})";
 }
 
+// ball_scene with a second ball in skin: `mesh` ("small" or "ball") at `at`.
+std::string skin_scene(const std::string& mm_per_unit, const std::string& mesh, const std::string& at) {
+  return ball_scene("[0.8, 0.1, 0.05]",
+                    R"(, "skin": {"type": "skin", "albedo": [0.84, 0.6, 0.5], "mm_per_unit": )" + mm_per_unit + "}",
+                    R"(, {"name": "skin ball", "mesh": ")" + mesh + R"(", "material": "skin", "transform": {"translation": )" +
+                        at + "}}");
+}
+
 std::string weft_cli() { return WEFT_CLI; }
 
 void require_display() {
@@ -143,10 +151,7 @@ TEST_CASE("without a display weft view says so in one line, points to weft rende
 
 TEST_CASE("a scripted session (camera, knob, tiny and large resize, minimise, restore, screenshot) has no validation message") {
   require_display();
-  const std::string skin = R"(, "skin": {"type": "skin", "albedo": [0.84, 0.6, 0.5], "mm_per_unit": 1000})";
-  const std::string skin_ball =
-      R"(, {"name": "skin ball", "mesh": "small", "material": "skin", "transform": {"translation": [0.5, 0.1, 0.3]}})";
-  write(scratch() / "session.json", ball_scene("[0.8, 0.1, 0.05]", skin, skin_ball));
+  write(scratch() / "session.json", skin_scene("1000", "small", "[0.5, 0.1, 0.3]"));
   const fs::path shot = scratch() / "session.png";
   write(scratch() / "session.txt", "orbit 20 0\norbit 20 5\nzoom 0.8\npan 0.05 0\nfly 0.1 0 0\nreset\n"
                                    "knob skin lut.size 32\nknob skin lut.range \"full\"\nquality medium\nwait 2\n"
@@ -211,10 +216,7 @@ TEST_CASE("hot reload: a changed colour shows, invalid JSON is reported and the 
 
 TEST_CASE("compare with reference: the reference setting against itself is exact, a coarse skin LUT is not") {
   require_display();
-  const std::string skin = R"(, "skin": {"type": "skin", "albedo": [0.84, 0.6, 0.5], "mm_per_unit": 100})";
-  const std::string skin_ball =
-      R"(, {"name": "skin ball", "mesh": "ball", "material": "skin", "transform": {"translation": [0.45, 0.3, 0.2]}})";
-  write(scratch() / "compare.json", ball_scene("[0.8, 0.1, 0.05]", skin, skin_ball));
+  write(scratch() / "compare.json", skin_scene("100", "ball", "[0.45, 0.3, 0.2]"));
   const fs::path same = scratch() / "overlay_same.png", coarse = scratch() / "overlay_coarse.png";
   write(scratch() / "compare.txt", "ui off\nknob skin reference true\nrefine\ncompare skin\noverlay on\nscreenshot " +
                                    same.string() + "\noverlay off\n"
