@@ -273,24 +273,16 @@ struct HeapBuilder {
   // the heap with no padding, whose segment place() has already recorded (occupy() not needed).
   [[gnu::always_inline]] inline std::uint64_t place(std::uint64_t bytes, const Alignment& alignment, std::uint32_t resource,
                                                     bool& appended) {
-    const std::uint64_t offset = runs_in_tree ? place_in_tree(bytes, alignment, resource, appended)
-                                              : place_in(run_array, bytes, alignment, resource, appended);
-    if (runs_in_tree) [[unlikely]] {
-      if (run_tree.size() < runs_to_array) runs_to_arrays();
-    } else if (run_array.size() >= runs_to_tree) [[unlikely]] {
-      runs_to_trees();
-    }
-    return offset;
+    if (runs_in_tree) [[unlikely]]
+      return place_in_tree(bytes, alignment, resource, appended);
+    return place_in(run_array, bytes, alignment, resource, appended);
   }
 
   [[gnu::always_inline]] inline void release(std::uint64_t offset, std::uint64_t bytes) {
-    if (runs_in_tree) [[unlikely]] {
+    if (runs_in_tree) [[unlikely]]
       release_in_tree(offset, bytes);
-      if (run_tree.size() < runs_to_array) runs_to_arrays();
-    } else {
+    else
       release_in(run_array, offset, bytes);
-      if (run_array.size() >= runs_to_tree) [[unlikely]] runs_to_trees();
-    }
   }
 
   // Marks [offset, offset + bytes) as `resource`'s and appends the previous occupants to
@@ -299,16 +291,28 @@ struct HeapBuilder {
                                             std::vector<std::uint32_t>& previous, std::size_t previous_begin) {
     if (segments_in_tree) [[unlikely]] occupy_in_tree(offset, bytes, resource, previous, previous_begin);
     else occupy_in(segment_array, offset, bytes, resource, previous, previous_begin);
-    check_segments();
   }
 
  private:
   // The tree versions out of line: the arrays' are what a frame usually runs, inline.
+  // The arrays switch to trees where they grow (see place_in, release_in); the trees back to
+  // arrays here, after any change.
   [[gnu::noinline]] std::uint64_t place_in_tree(std::uint64_t bytes, const Alignment& alignment, std::uint32_t resource,
                                                 bool& appended) {
-    return place_in(run_tree, bytes, alignment, resource, appended);
+    const std::uint64_t offset = place_in(run_tree, bytes, alignment, resource, appended);
+    if (run_tree.size() < runs_to_array) runs_to_arrays();
+    return offset;
   }
-  [[gnu::noinline]] void release_in_tree(std::uint64_t offset, std::uint64_t bytes) { release_in(run_tree, offset, bytes); }
+  [[gnu::noinline]] void release_in_tree(std::uint64_t offset, std::uint64_t bytes) {
+    release_in(run_tree, offset, bytes);
+    if (run_tree.size() < runs_to_array) runs_to_arrays();
+  }
+  // After an array of free runs grew: a tree from `runs_to_tree` runs on.
+  template <class Runs>
+  void grew(Runs& free) {
+    if constexpr (std::is_same_v<Runs, RunArray>)
+      if (free.size() >= runs_to_tree) [[unlikely]] runs_to_trees();
+  }
   [[gnu::noinline]] void occupy_in_tree(std::uint64_t offset, std::uint64_t bytes, std::uint32_t resource,
                                         std::vector<std::uint32_t>& previous, std::size_t previous_begin) {
     occupy_in(segment_tree, offset, bytes, resource, previous, previous_begin);
@@ -446,6 +450,7 @@ struct HeapBuilder {
       free.insert(after, best + bytes, whole_end);
       index_insert<Runs>(best + bytes, whole_end);
     }
+    grew(free);  // the fast paths above never add a run
     return best;
   }
 
@@ -462,6 +467,7 @@ struct HeapBuilder {
       } else {
         free.insert(free.end(), begin, end);
         index_insert<Runs>(begin, end);
+        grew(free);
       }
       return;
     }
@@ -488,6 +494,7 @@ struct HeapBuilder {
     } else {
       free.insert(next, begin, end);
       index_insert<Runs>(begin, end);
+      grew(free);
     }
   }
 
@@ -525,6 +532,7 @@ struct HeapBuilder {
       after = segments.erase(std::next(first), last);
     }
     if (tail.end > end) segments.insert(after, end, tail);
+    check_segments();  // the exact case above keeps the count
   }
 };
 
