@@ -29,6 +29,7 @@
 #include <vector>
 #include <glm/glm.hpp>
 import weft.core;
+import weft.feature;
 import weft.gpu;
 import weft.scene;
 import weft.renderer;
@@ -254,6 +255,11 @@ void storage_table() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // This program links one feature and registers it, as any application does.
+  if (auto ok = register_feature(passes::neural_btf_feature()); !ok) {
+    std::fprintf(stderr, "%s\n", ok.error().what().c_str());
+    return 1;
+  }
   Options o;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];

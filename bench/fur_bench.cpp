@@ -34,6 +34,7 @@ import weft.graph;
 import weft.image;
 import weft.scene;
 import weft.pass.shell_fur;
+import weft.test.fur_frame;
 import weft.example.fur_resample;
 
 using namespace weft;

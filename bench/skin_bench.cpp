@@ -28,6 +28,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <sys/resource.h>
 import weft.core;
+import weft.feature;
 import weft.gpu;
 import weft.graph;
 import weft.image;
@@ -622,6 +623,11 @@ void image_table(Session& session, const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // This program links one feature and registers it, as any application does.
+  if (auto ok = register_feature(passes::skin_sss_feature()); !ok) {
+    std::fprintf(stderr, "%s\n", ok.error().what().c_str());
+    return 1;
+  }
   Options o;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];

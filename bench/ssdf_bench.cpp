@@ -24,6 +24,7 @@
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
 import weft.core;
+import weft.feature;
 import weft.cluster;
 import weft.image;
 import weft.gpu;
@@ -51,6 +52,11 @@ struct Row {
 int lighting_bench(int argc, char** argv);
 
 int main(int argc, char** argv) {
+  // This program links one feature and registers it, as any application does.
+  if (auto ok = register_feature(passes::ssdf_lighting_feature()); !ok) {
+    std::fprintf(stderr, "%s\n", ok.error().what().c_str());
+    return 1;
+  }
   for (int i = 1; i < argc; ++i)
     if (std::string(argv[i]) == "--lighting") return lighting_bench(argc, argv);
   std::uint32_t resolution = 64;
@@ -338,7 +344,7 @@ int lighting_bench(int argc, char** argv) {
   s.objects.push_back({.name = "teapot", .mesh = 0, .material = 0,
                        .transform = scene::Transform{.translation = {0.0f, lift, 0.0f}}.matrix()});
   s.objects.push_back({.name = "floor", .mesh = 1, .material = 0, .transform = mat4(1.0f)});
-  s.materials.push_back({.name = "ssdf", .type = scene::MaterialType::Ssdf});
+  s.materials.push_back({.name = "ssdf", .type = passes::ssdf_lighting_feature().name});
   s.materials[0].json_path = "$.materials.ssdf";
   s.camera = {.position = {1.5f, 1.25f, 2.0f}, .target = {0.0f, 0.3f, 0.0f}, .fov_y_degrees = 38.0f, .near = 0.3f, .far = 20.0f};
   s.environment = std::move(*env);
@@ -418,7 +424,7 @@ int lighting_bench(int argc, char** argv) {
   double forward_ms = -1.0;
   {
     scene::Scene plain = s;
-    plain.materials[0] = {.name = "plain", .type = scene::MaterialType::Standard};
+    plain.materials[0] = {.name = "plain", .type = std::string(scene::standard_material)};
     auto r = renderer::Renderer::create(*device);
     std::vector<double> ms;
     for (std::uint32_t i = 0; i <= runs; ++i) {

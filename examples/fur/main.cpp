@@ -24,6 +24,7 @@
 #include <vector>
 #include <nlohmann/json.hpp>
 import weft.core;
+import weft.feature;
 import weft.gpu;
 import weft.image;
 import weft.scene;
@@ -65,7 +66,7 @@ scene::Scene make_scene(const Shot& shot, std::uint32_t w, std::uint32_t h) {
   s.meshes = {shot.mesh};
   scene::Material m;
   m.name = "fur";
-  m.type = scene::MaterialType::Fur;
+  m.type = passes::shell_fur_feature().name;
   m.params = shot.material;
   m.json_path = "$.materials.fur";
   s.materials = {m};
@@ -85,6 +86,11 @@ Result<scene::Mesh> load_normalized(const fs::path& path) {
 }
 
 int run(int argc, char** argv) {
+  // This program links one feature and registers it, as any application does.
+  if (auto ok = register_feature(passes::shell_fur_feature()); !ok) {
+    std::fprintf(stderr, "%s\n", ok.error().what().c_str());
+    return 1;
+  }
   fs::path out = "fur-images", photo;
   std::uint32_t width = 512, height = 512;
   std::string only;

@@ -25,6 +25,7 @@
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
 import weft.core;
+import weft.feature;
 import weft.gpu;
 import weft.image;
 import weft.scene;
@@ -49,7 +50,7 @@ constexpr float kHeadMmPerUnit = 900.0f;
 const vec3 kSkinAlbedo{0.84f, 0.6f, 0.5f};
 
 scene::Material skin(std::string name, nlohmann::json params) {
-  scene::Material m{.name = std::move(name), .type = scene::MaterialType::Skin};
+  scene::Material m{.name = std::move(name), .type = passes::skin_sss_feature().name};
   if (!params.contains("albedo")) params["albedo"] = {kSkinAlbedo.x, kSkinAlbedo.y, kSkinAlbedo.z};
   m.params = std::move(params);
   return m;
@@ -290,6 +291,11 @@ Result<void> run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // This program links one feature and registers it, as any application does.
+  if (auto ok = register_feature(passes::skin_sss_feature()); !ok) {
+    std::fprintf(stderr, "%s\n", ok.error().what().c_str());
+    return 1;
+  }
   Options o;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];

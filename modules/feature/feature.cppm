@@ -1,14 +1,20 @@
-// weft.feature — the contract between the renderer and a feature (fur, skin, SSDF, neural
-// BTF): a FeaturePass is created only when a scene uses its material type, prepares its
-// assets (bakes cached by content hash), and adds its passes to the frame's graph.
+// weft.feature — how a material feature (fur, skin, SSDF, neural BTF, or one of yours) plugs
+// into weft without the engine knowing it by name. A feature module exports one
+// FeatureDescriptor: its material type name (and older aliases), a check of its material's
+// fields, the factory of its FeaturePass, and its knob table. An application registers the
+// features it links (register_feature; Falcor's registerPass is the model), and the renderer,
+// `weft tradeoff`, the stability sweep and the viewer read the same registry.
 module;
 #include <cstdint>
 #include <expected>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
+#include <nlohmann/json.hpp>
 export module weft.feature;
 import weft.core;
 import weft.gpu;
@@ -18,7 +24,7 @@ import weft.scene;
 
 export namespace weft {
 
-// Quality presets; each feature maps them to its own knobs (documented in docs/tradeoffs.md).
+// Quality presets; each feature maps them to its own knobs (its descriptor's preset_values).
 enum class Quality : std::uint8_t { Low, Medium, High, Reference };
 std::string_view to_string(Quality quality);
 Result<Quality> quality_from_string(std::string_view name);
@@ -34,10 +40,10 @@ struct FeatureFrame {
   std::uint32_t width = 0, height = 0;
 };
 
-// A feature's hook into the frame. add_passes() finds "frame_uniforms", "environment",
-// "shadow_map", "scene_color" and "scene_depth" on the blackboard and puts back the new
-// versions of "scene_color" (and "scene_depth" when it draws opaque geometry). Anything
-// its execute callbacks use (draw lists, matrices) must live in the FeaturePass object.
+// A feature's hook into the frame. add_passes() finds the frame's shared targets with
+// frame::scene_targets() (or draws through frame::add_scene_color_pass, which does) and puts
+// back the new versions of the scene colour and depth. Anything its execute callbacks use
+// (draw lists, matrices) must live in the FeaturePass object.
 class FeaturePass {
  public:
   virtual ~FeaturePass() = default;
@@ -50,6 +56,104 @@ class FeaturePass {
 };
 
 using FeatureFactory = Result<std::unique_ptr<FeaturePass>> (*)(gpu::Device& device);
+
+// ---- knobs: the one table of a feature's quality settings ---------------------------------
+
+enum class KnobKind : std::uint8_t { Integer, Number, Boolean, Choice };
+
+// A material field that trades speed for accuracy. The material parser reads its range from
+// here (read_knob), the trade-off study sweeps it, the stability test renders its extremes.
+struct Knob {
+  std::string name;                    // the material field; '.' descends into objects: "lut.size"
+  KnobKind kind = KnobKind::Integer;
+  double min = 0.0, max = 0.0;         // Integer, Number: inclusive, what the material accepts
+  std::vector<std::string> choices;    // Choice
+  std::vector<nlohmann::json> sweep;   // the values a sweep tries, one at a time
+  std::string meaning;                 // one line, for `--list`, the docs and the viewer
+  // The bounds the stability sweep renders when `min` or `max` would take hours (a bake):
+  // unset, it renders `min` and `max`. Why is said where the knob is written.
+  std::optional<double> extreme_min, extreme_max;
+};
+Knob integer_knob(std::string name, double min, double max, std::vector<nlohmann::json> sweep, std::string meaning);
+Knob number_knob(std::string name, double min, double max, std::vector<nlohmann::json> sweep, std::string meaning);
+Knob boolean_knob(std::string name, std::string meaning);
+Knob choice_knob(std::string name, std::vector<std::string> choices, std::string meaning);
+
+// The knob called `name` of a table; nullptr when there is none.
+const Knob* find_knob(std::span<const Knob> knobs, std::string_view name);
+// A knob's range as the scene reader takes it.
+scene::Range knob_range(const Knob& knob);
+// Reads the field `field` of `reader` (the knob's last name part, e.g. "size" of "lut.size")
+// with the knob's range or choices, so a range is written once: in the knob table.
+std::int64_t read_integer_knob(scene::JsonReader& reader, const Knob& knob, std::int64_t fallback);
+double read_number_knob(scene::JsonReader& reader, const Knob& knob, double fallback);
+std::string read_choice_knob(scene::JsonReader& reader, const Knob& knob, std::string fallback);
+
+// What a setting of the knobs costs on the x axis of the trade-off plot.
+enum class CostAxis : std::uint8_t {
+  Frame,      // steady frame: median GPU time of the frames after the first
+  ColdFrame,  // the first frame with empty caches: the feature's bakes (LUTs) plus one frame
+};
+std::string_view to_string(CostAxis axis);
+
+// ---- the descriptor and the registry --------------------------------------------------------
+
+// Everything weft knows about a feature: one per feature module, registered by the application.
+struct FeatureDescriptor {
+  // The feature's one name: its folder under passes/, its material type in scene files, its
+  // `weft tradeoff --feature` name ("shell_fur"). Older names keep working as aliases ("fur").
+  std::string name;
+  std::vector<std::string> aliases;
+  std::string summary;                 // one line: what the feature draws
+  std::string doc;                     // where it is documented: "docs/fur.md"
+  // Checks a material of this type (its fields in material.params at material.json_path):
+  // one Parse error naming every bad field's JSON path. Quality fills knobs left unset.
+  Result<void> (*check_material)(const scene::Material& material) = nullptr;
+  FeatureFactory create = nullptr;     // the FeaturePass the renderer adds for this type
+  std::vector<std::string> passes;     // its graph passes, for their GPU times
+
+  std::vector<Knob> knobs;
+  // The knob values each quality preset gives (read from the feature, so the presets the
+  // study measures are the ones `weft render --quality` uses). Null: no preset knobs.
+  nlohmann::json (*preset_values)(Quality quality) = nullptr;
+  nlohmann::json reference = nlohmann::json::object();  // knob values of the most accurate setting
+  std::string reference_why;           // one line; the feature's doc says more
+  CostAxis cost = CostAxis::Frame;
+  std::vector<std::pair<std::string, std::string>> grids;  // knob pairs a sweep crosses
+  // Environment variables set while a study runs (e.g. a bake cache switched off).
+  std::vector<std::pair<std::string, std::string>> environment;
+  void (*clear_caches)() = nullptr;    // drops process-wide caches so a bake is timed cold
+};
+
+// The features of this process. Registration is explicit (an application registers what it
+// links; weft's own tools call register_builtin_features from weft.features.builtin) and
+// also registers the name and aliases as a material type with weft.scene. Descriptors live
+// as long as the process; pointers to them stay valid.
+class FeatureRegistry {
+ public:
+  // InvalidArgument when the name or an alias is taken, or the descriptor lacks its name,
+  // factory or material check. Registering an equal name and aliases again is a no-op.
+  Result<void> add(FeatureDescriptor descriptor);
+  // By name or alias; nullptr when none.
+  [[nodiscard]] const FeatureDescriptor* find(std::string_view name_or_alias) const;
+  // NotFound listing the registered names.
+  [[nodiscard]] Result<const FeatureDescriptor*> get(std::string_view name_or_alias) const;
+  // In registration order.
+  [[nodiscard]] std::vector<const FeatureDescriptor*> all() const;
+  // "shell_fur (fur), skin_sss (skin)" or "none registered".
+  [[nodiscard]] std::string names() const;
+
+  FeatureRegistry();
+  ~FeatureRegistry();
+  FeatureRegistry(const FeatureRegistry&) = delete;
+  FeatureRegistry& operator=(const FeatureRegistry&) = delete;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+FeatureRegistry& feature_registry();
+inline Result<void> register_feature(FeatureDescriptor descriptor) { return feature_registry().add(std::move(descriptor)); }
 
 // Scene meshes in weft's vertex layout, and a key of their content for caches (the
 // renderer's and the features' GPU copies of the same mesh agree on it).

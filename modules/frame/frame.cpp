@@ -49,17 +49,6 @@ Result<GpuMesh> upload_mesh(gpu::Device& device, const MeshData& mesh) {
   return out;
 }
 
-std::string_view to_string(Feature feature) {
-  switch (feature) {
-    case Feature::Standard: return "standard";
-    case Feature::Fur: return "fur";
-    case Feature::Skin: return "skin";
-    case Feature::NeuralBtf: return "neural_btf";
-    case Feature::SsdfLit: return "ssdf";
-  }
-  return "?";
-}
-
 namespace {
 std::array<float, 9> sh_basis(vec3 d) {
   return {0.282095f,

@@ -1,17 +1,21 @@
 // weft.frame — what every pass of a frame shares without knowing the scene file: meshes on
 // the GPU in weft's one vertex layout, the per-frame uniforms (camera, key light, shadow
-// matrix, environment), draw items tagged with the feature that shades them, and the
-// pipeline and shadow sampler that the features drawing lit meshes all create alike.
+// matrix, environment), the frame's shared targets (one typed blackboard entry), the one
+// helper that draws lit meshes into the scene colour, and the pipeline and shadow sampler
+// that the passes drawing lit meshes all create alike.
 module;
 #include <array>
 #include <cstdint>
 #include <expected>
+#include <functional>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 export module weft.frame;
 import weft.core;
 import weft.gpu;
+import weft.graph;
 
 export namespace weft::frame {
 
@@ -59,10 +63,6 @@ struct MeshData {
 };
 Result<GpuMesh> upload_mesh(gpu::Device& device, const MeshData& mesh);
 
-// Which pass shades a draw item; a pass draws only the items of its own feature.
-enum class Feature : std::uint8_t { Standard, Fur, Skin, NeuralBtf, SsdfLit };
-std::string_view to_string(Feature feature);
-
 struct StandardMaterial {
   vec3 base_color{0.8f};
   float metallic = 0.0f;
@@ -70,13 +70,12 @@ struct StandardMaterial {
   vec3 emissive{0.0f};
 };
 
+// One mesh for the forward pass (standard materials); features keep their own draw lists.
 struct DrawItem {
   const GpuMesh* mesh = nullptr;
   mat4 model{1.0f};
-  Feature feature = Feature::Standard;
-  StandardMaterial material;    // used by the standard passes; features keep their own
+  StandardMaterial material;
   const gpu::TextureView* base_color_texture = nullptr;  // sRGB, multiplies base_color; null = white
-  std::uint32_t feature_index = 0;  // index into the feature's own material list
 };
 
 // std140 per-frame uniforms, bound as set 0 binding 0 by the passes that need them.
@@ -102,6 +101,77 @@ std::array<vec4, 9> irradiance_sh(std::span<const float> rgb, std::uint32_t widt
 vec3 evaluate_sh(const std::array<vec4, 9>& sh, vec3 normal);
 // Exact SH of a constant sky of radiance c: E(n) = π c everywhere.
 std::array<vec4, 9> constant_irradiance_sh(vec3 radiance);
+
+// ---- the frame's shared targets --------------------------------------------------------
+
+// The formats of the scene colour (HDR, linear) and depth the lit passes draw into.
+inline constexpr gpu::Format scene_color_format = gpu::Format::RGBA16Float;
+inline constexpr gpu::Format scene_depth_format = gpu::Format::Depth32Float;
+
+// What the passes of one frame share, as one typed blackboard entry (Filament's blackboard
+// of well-known handles): the renderer puts the uniforms, the environment and the shadow
+// map; the forward pass creates the colour and depth; every lit pass after it loads them
+// and puts back the versions it wrote. The blackboard keys behind it live in frame.cpp only.
+struct SceneTargets {
+  BufferHandle uniforms;      // FrameUniforms (set 0, binding 0 of the lit passes)
+  TextureHandle environment;  // equirectangular RGBA32F radiance
+  TextureHandle shadow_map;   // the key light's depth; a 1x1 far depth without a key light
+  TextureHandle color;        // scene_color_format
+  TextureHandle depth;        // scene_depth_format
+};
+// Which targets a pass cannot do without; the others may be absent (invalid handles then):
+// the colour and depth for the pass that creates them, the environment for passes that do
+// not sample it.
+struct SceneTargetNeeds {
+  bool uniforms = true, environment = true, shadow_map = true, color = true, depth = true;
+};
+// The handles on the blackboard; the first needed one missing is an error naming it (and
+// the pass asking, inside a setup).
+Result<SceneTargets> scene_targets(const Blackboard& board, SceneTargetNeeds needs = {});
+// Puts every valid handle of `targets`; invalid ones leave the blackboard's entry as it is.
+void put_scene_targets(Blackboard& board, const SceneTargets& targets);
+
+// ---- drawing lit meshes into the scene colour ------------------------------------------------
+
+// A persistent asset a lit pass reads: imported into the graph once per frame however many
+// draws use it (by address), under `label`, then read sampled (textures) or as read-only
+// storage (buffers). Null pointers are skipped.
+struct PassTexture {
+  std::string label;
+  const gpu::Texture* texture = nullptr;
+};
+struct PassBuffer {
+  std::string label;
+  const gpu::Buffer* buffer = nullptr;
+};
+
+struct ScenePassDesc {
+  std::string name;                  // the graph pass and its render pass label
+  bool reads_environment = false;    // also sample the environment (the shadow map always)
+  std::vector<PassTexture> textures;
+  std::vector<PassBuffer> buffers;
+  // The first lit pass of a frame (forward): creates the scene colour and depth, cleared to
+  // this colour and the far plane, instead of loading the blackboard's.
+  std::optional<vec4> clear_color;
+};
+
+// What the draw callback gets: the render pass already begun on the scene colour and depth
+// (ended after the callback), the frame's shared inputs, and the pass context (device,
+// keep(), errors). A callback that fails reports the error on context.encoder() and returns.
+struct ScenePassDraw {
+  gpu::RenderPassEncoder& pass;
+  PassContext& context;
+  const gpu::Buffer& uniforms;
+  const gpu::TextureView& shadow_map;
+  const gpu::TextureView* environment = nullptr;  // when reads_environment
+};
+using DrawScene = std::function<void(ScenePassDraw& draw)>;
+
+// Filament's colorPass: finds the frame's SceneTargets, declares the reads (uniforms, shadow
+// map, environment, the imported assets) and the colour and depth attachments, records
+// `draw` inside one render pass, and puts the new colour and depth versions back. A lit
+// pass keeps only its pipeline and draw loop. Errors: a missing shared target.
+Result<void> add_scene_color_pass(RenderGraph& graph, ScenePassDesc desc, DrawScene draw);
 
 // SPIR-V of shaders/fullscreen.vert: one triangle over the screen at the far plane, `uv` out.
 std::span<const std::uint32_t> fullscreen_vertex_spirv();

@@ -21,10 +21,10 @@ import weft.graph;
 import weft.frame;
 import weft.image;
 import weft.scene;
-import weft.pass.shadow;
-import weft.pass.forward;
-import weft.pass.background;
-import weft.pass.tonemap;
+import weft.base_pass.shadow;
+import weft.base_pass.forward;
+import weft.base_pass.background;
+import weft.base_pass.tonemap;
 
 namespace weft::renderer {
 
@@ -59,8 +59,10 @@ struct Renderer::State {
   std::optional<RenderGraph> frame_graph;    // reset and rebuilt every frame
 
   // Features, created the first time a scene uses their material type.
-  std::map<scene::MaterialType, std::unique_ptr<FeaturePass>> features;
-  std::map<scene::MaterialType, std::vector<std::uint32_t>> feature_objects;
+  // By material type. Features prepare and add their passes in registration order (the
+  // order in which they draw into the scene colour), whatever the scene's order.
+  std::map<std::string, std::unique_ptr<FeaturePass>, std::less<>> features;
+  std::map<std::string, std::vector<std::uint32_t>, std::less<>> feature_objects;
   std::vector<const frame::GpuMesh*> mesh_table;  // by scene mesh index
 
   // One frame's inputs, kept alive until the graph has executed.
@@ -69,9 +71,19 @@ struct Renderer::State {
   frame::FrameUniforms frame_uniforms;
   std::vector<std::string> warnings;
 
-  FeatureFrame feature_frame(const scene::Scene& scene, scene::MaterialType type, const RenderOptions& options,
+  FeatureFrame feature_frame(const scene::Scene& scene, std::string_view type, const RenderOptions& options,
                              std::uint32_t w, std::uint32_t h) {
-    return FeatureFrame{*device, scene, feature_objects.at(type), mesh_table, frame_uniforms, options.quality, w, h};
+    return FeatureFrame{*device, scene, feature_objects.find(type)->second, mesh_table, frame_uniforms, options.quality, w, h};
+  }
+  // The material types of this frame's feature objects: registered ones in registration
+  // order, then any nobody registered (prepare reports those).
+  std::vector<std::string> feature_order() const {
+    std::vector<std::string> order;
+    for (const auto* d : feature_registry().all())
+      if (feature_objects.contains(d->name)) order.push_back(d->name);
+    for (const auto& [type, objects] : feature_objects)
+      if (std::find(order.begin(), order.end(), type) == order.end()) order.push_back(type);
+    return order;
   }
   Result<void> ensure_passes(bool key_light, Quality quality);
   Result<void> upload_scene(const scene::Scene& scene);
@@ -191,14 +203,9 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
     const auto& s = material.standard;
     item.material = {.base_color = s.base_color, .metallic = s.metallic, .roughness = s.roughness, .emissive = s.emissive};
     shadow_casters.push_back(item);
-    if (material.type != scene::MaterialType::Standard) {
-      if (detail::feature_factory(material.type)) {
-        feature_objects[material.type].push_back(i);
-        continue;
-      }
-      warnings.push_back(weft::format("material '{}' is a {} material; its pass is not in this build yet, so object "
-                                      "'{}' is shaded as standard PBR",
-                                      material.name, scene::to_string(material.type), object.name));
+    if (material.type != scene::standard_material) {
+      feature_objects[material.type].push_back(i);
+      continue;
     }
     item.base_color_texture = base_color_texture(s.base_color_texture, material.name);
     if (!s.normal_texture.empty() || !s.metallic_roughness_texture.empty())
@@ -248,11 +255,18 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
     uniforms.emplace(std::move(*b));
   }
   if (auto ok = device->queue().write_buffer(*uniforms, 0, std::as_bytes(std::span(&u, 1))); !ok) return ok;
-  for (const auto& [type, objects] : feature_objects) {
+  for (const std::string& type : feature_order()) {
+    const auto& objects = feature_objects.at(type);
     auto& feature = features[type];
     if (!feature) {
-      auto created = detail::feature_factory(type)(*device);
-      if (!created) return with_context(weft::format("creating the {} feature", scene::to_string(type)), created.error());
+      // A scene file's types were checked against the registry when it was read; a scene
+      // built in code may name a type nobody registered.
+      const FeatureDescriptor* descriptor = feature_registry().find(type);
+      if (!descriptor)
+        return fail(ErrorKind::NotFound, "material type '{}' (object '{}'): no feature of that name is registered; "
+                    "registered: {}", type, scene.objects.at(objects.front()).name, feature_registry().names());
+      auto created = descriptor->create(*device);
+      if (!created) return with_context(weft::format("creating the {} feature", type), created.error());
       feature = std::move(*created);
       ++stats.pass_creations;
     }
@@ -287,23 +301,25 @@ Result<std::pair<RenderGraph*, TextureHandle>> Renderer::State::build_graph(cons
     frame_graph.emplace("frame");
   RenderGraph& graph = *frame_graph;
   auto& board = graph.blackboard();
-  board.put("frame_uniforms", graph.import_buffer("frame_uniforms", &*uniforms, gpu::Access::UniformRead));
-  board.put("environment", graph.import_texture("environment", &*environment, gpu::Access::ShaderRead));
+  frame::put_scene_targets(
+      board, {.uniforms = graph.import_buffer("frame_uniforms", &*uniforms, gpu::Access::UniformRead),
+              .environment = graph.import_texture("environment", &*environment, gpu::Access::ShaderRead)});
   if (key_light)
     shadow->add(graph, shadow_casters, frame_uniforms.light_view_projection);
   else
-    board.put("shadow_map", graph.import_texture("no_shadow", &*no_shadow, gpu::Access::ShaderRead));
+    frame::put_scene_targets(board, {.shadow_map = graph.import_texture("no_shadow", &*no_shadow, gpu::Access::ShaderRead)});
   if (auto ok = forward->add(graph, items); !ok) return std::unexpected(ok.error());
-  for (const auto& [type, feature] : features) {
-    if (!feature_objects.contains(type)) continue;  // created for an earlier scene, unused now
+  for (const std::string& type : feature_order()) {
+    const auto& feature = features.at(type);
     const auto w = std::uint32_t(frame_uniforms.viewport.x), h = std::uint32_t(frame_uniforms.viewport.y);
     if (auto ok = feature->add_passes(graph, feature_frame(scene, type, options, w, h)); !ok)
       return with_context(weft::format("feature '{}'", feature->name()), ok.error());
   }
   if (auto ok = background->add(graph); !ok) return std::unexpected(ok.error());
   if (options.read_hdr) {
-    auto color = board.get<TextureHandle>("scene_color");
-    if (!color) return std::unexpected(color.error());
+    auto targets = frame::scene_targets(board);
+    if (!targets) return std::unexpected(targets.error());
+    const TextureHandle color = targets->color;
     struct HdrCopy {
       TextureHandle color;
       BufferHandle readback;
@@ -312,7 +328,7 @@ Result<std::pair<RenderGraph*, TextureHandle>> Renderer::State::build_graph(cons
     auto& copy = graph.add_pass<HdrCopy>(
         "hdr_readback",
         [&](PassBuilder& b, HdrCopy& d) {
-          d.color = b.read(*color, TextureUse::CopySrc);
+          d.color = b.read(color, TextureUse::CopySrc);
           d.readback = b.write(target, BufferUse::CopyDst);
         },
         [](const PassResources& res, const HdrCopy& d, PassContext& ctx) {

@@ -1,6 +1,8 @@
 // weft.renderer — turns a scene into a frame: adds only the passes the scene's materials
 // and lights need, builds and compiles the graph, executes it and reads the image back.
-// GPU meshes, environment maps and pass pipelines are cached across frames.
+// A material that is not "standard" is drawn by the registered feature of its type
+// (weft::feature_registry()); the renderer names no feature. GPU meshes, environment maps
+// and pass pipelines are cached across frames.
 module;
 #include <cstdint>
 #include <expected>
@@ -84,6 +86,4 @@ struct EnvironmentTexels {
   std::vector<float> rgb;
 };
 EnvironmentTexels environment_texels(const scene::Environment& env);
-// The factory of the feature that shades a material type (features.cpp), if it is built.
-FeatureFactory feature_factory(scene::MaterialType type);
 }  // namespace weft::renderer::detail

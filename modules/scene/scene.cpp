@@ -12,7 +12,11 @@ module;
 #include <utility>
 #include <variant>
 #include <vector>
+#include <mutex>
+#include <span>
 #include <glm/glm.hpp>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 module weft.scene;
 import weft.core;
@@ -44,26 +48,58 @@ Result<Mesh> build_mesh(const MeshSource& src) {
 
 }  // namespace
 
-std::string_view to_string(MaterialType type) {
-  switch (type) {
-    case MaterialType::Standard: return "standard";
-    case MaterialType::Fur: return "fur";
-    case MaterialType::Skin: return "skin";
-    case MaterialType::NeuralBtf: return "neural_btf";
-    case MaterialType::Ssdf: return "ssdf";
+namespace {
+struct MaterialTypeTable {
+  std::mutex mutex;
+  std::vector<std::pair<std::string, std::vector<std::string>>> types;  // name, aliases
+};
+MaterialTypeTable& material_types() {
+  static MaterialTypeTable table;
+  return table;
+}
+}  // namespace
+
+Result<void> register_material_type(std::string_view name, std::span<const std::string> aliases) {
+  auto& table = material_types();
+  std::lock_guard lock(table.mutex);
+  const std::vector<std::string> wanted(aliases.begin(), aliases.end());
+  for (const auto& [known, known_aliases] : table.types)
+    if (known == name) {
+      if (known_aliases == wanted) return {};
+      return fail(ErrorKind::InvalidArgument, "material type '{}' is already registered with other aliases", name);
+    }
+  std::vector<std::string_view> names{name};
+  names.insert(names.end(), aliases.begin(), aliases.end());
+  for (std::string_view n : names) {
+    if (n.empty() || n == standard_material)
+      return fail(ErrorKind::InvalidArgument, "material type '{}': '{}' cannot be a feature's type name", name, n);
+    for (const auto& [known, known_aliases] : table.types)
+      if (known == n || std::find(known_aliases.begin(), known_aliases.end(), n) != known_aliases.end())
+        return fail(ErrorKind::InvalidArgument, "material type '{}': the name '{}' is taken by '{}'", name, n, known);
   }
-  return "standard";
+  table.types.emplace_back(std::string(name), wanted);
+  return {};
 }
 
-std::optional<MaterialType> material_type_from_string(std::string_view name) {
-  for (MaterialType t : {MaterialType::Standard, MaterialType::Fur, MaterialType::Skin, MaterialType::NeuralBtf,
-                         MaterialType::Ssdf}) {
-    if (to_string(t) == name) return t;
-  }
+std::optional<std::string> resolve_material_type(std::string_view name) {
+  if (name == standard_material) return std::string(standard_material);
+  auto& table = material_types();
+  std::lock_guard lock(table.mutex);
+  for (const auto& [known, aliases] : table.types)
+    if (known == name || std::find(aliases.begin(), aliases.end(), name) != aliases.end()) return known;
   return std::nullopt;
 }
 
-bool Scene::uses(MaterialType type) const {
+std::string known_material_types() {
+  auto& table = material_types();
+  std::lock_guard lock(table.mutex);
+  std::string out(standard_material);
+  for (const auto& [known, aliases] : table.types)
+    out += aliases.empty() ? fmt::format(", {}", known) : fmt::format(", {} ({})", known, fmt::join(aliases, ", "));
+  return out;
+}
+
+bool Scene::uses(std::string_view type) const {
   return std::any_of(objects.begin(), objects.end(), [&](const Object& o) {
     return o.material < materials.size() && materials[o.material].type == type;
   });

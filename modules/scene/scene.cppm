@@ -222,11 +222,19 @@ struct Environment {
 
 // ---- materials, objects ------------------------------------------------------------------
 
-// The feature a material draws with; each has its own pass(es) in the renderer.
-enum class MaterialType : std::uint8_t { Standard, Fur, Skin, NeuralBtf, Ssdf };
-// "standard", "fur", "skin", "neural_btf", "ssdf" — the names scene files use.
-[[nodiscard]] std::string_view to_string(MaterialType type);
-[[nodiscard]] std::optional<MaterialType> material_type_from_string(std::string_view name);
+// A material's type is a name: "standard" (drawn by the forward pass) or the name of a
+// feature (shell_fur, skin_sss, ...). The scene does not know the features; weft.feature's
+// register_feature() registers each feature's name and its older aliases here, and scene
+// files are checked against these names. Registration is for the whole process.
+inline constexpr std::string_view standard_material = "standard";
+// Adds a type (and aliases that resolve to it); InvalidArgument when a name is taken by
+// another type. Registering the same name with the same aliases again changes nothing.
+[[nodiscard]] Result<void> register_material_type(std::string_view name, std::span<const std::string> aliases = {});
+// The type a scene file's name stands for ("fur" -> "shell_fur"), or nullopt when unknown.
+[[nodiscard]] std::optional<std::string> resolve_material_type(std::string_view name);
+// "standard" then the registered types in registration order, with aliases in parentheses:
+// "standard, shell_fur (fur), skin_sss (skin)" — what an unknown type's error lists.
+[[nodiscard]] std::string known_material_types();
 
 // An image a material samples, decoded later by weft.image: a file, or (glTF data URIs and
 // GLB buffer views) the encoded bytes themselves.
@@ -253,7 +261,7 @@ struct StandardMaterial {
 
 struct Material {
   std::string name;
-  MaterialType type = MaterialType::Standard;
+  std::string type{standard_material};  // resolved: a registered name, never an alias
   StandardMaterial standard;  // the fields of a standard material (defaults for others)
   // A feature material's fields other than "type", unparsed: each feature reads its own
   // knobs with a JsonReader on `params` at `json_path`, resolving paths against `base_dir`.
@@ -470,7 +478,7 @@ struct Scene {
   std::vector<std::string> warnings;
 
   // Whether some object draws with a material of this type.
-  [[nodiscard]] bool uses(MaterialType type) const;
+  [[nodiscard]] bool uses(std::string_view material_type) const;
   // World-space bounds of every object.
   [[nodiscard]] Bounds bounds() const;
 };

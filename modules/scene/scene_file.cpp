@@ -170,9 +170,16 @@ Material read_material(JsonReader& r, const std::string& name) {
     r.error(fmt::format("expected an object, got {}", json_type_name(r.json())));
     return m;
   }
-  const std::string type = r.string("type", "standard", {"standard", "fur", "skin", "neural_btf", "ssdf"});
-  m.type = material_type_from_string(type).value_or(MaterialType::Standard);
-  if (m.type != MaterialType::Standard) {
+  const std::string type = r.string("type", std::string(standard_material));
+  if (auto resolved = resolve_material_type(type)) {
+    m.type = std::move(*resolved);
+  } else {
+    // Its other fields are the unknown feature's: not reported as unknown standard fields.
+    r.error_at("type", fmt::format("unknown material type '{}'; known: {}", type, known_material_types()));
+    m.params = r.rest({"type"});
+    return m;
+  }
+  if (m.type != standard_material) {
     // The feature's own pass reads and checks these (JsonReader on params at json_path).
     m.params = r.rest({"type"});
     return m;

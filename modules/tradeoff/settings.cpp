@@ -242,8 +242,10 @@ std::vector<Setting> extreme_settings(const Study& study, const json& base) {
   for (const auto& knob : study.knobs) {
     std::vector<json> extremes;
     switch (knob.kind) {
-      case KnobKind::Integer: extremes = {std::int64_t(knob.min), std::int64_t(knob.max)}; break;
-      case KnobKind::Number: extremes = {knob.min, knob.max}; break;
+      case KnobKind::Integer:
+        extremes = {std::int64_t(knob.extreme_min.value_or(knob.min)), std::int64_t(knob.extreme_max.value_or(knob.max))};
+        break;
+      case KnobKind::Number: extremes = {knob.extreme_min.value_or(knob.min), knob.extreme_max.value_or(knob.max)}; break;
       case KnobKind::Boolean: extremes = {false, true}; break;
       case KnobKind::Choice: extremes.assign(knob.choices.begin(), knob.choices.end()); break;
     }
@@ -255,7 +257,7 @@ std::vector<Setting> extreme_settings(const Study& study, const json& base) {
   return out;
 }
 
-bool scene_uses(const scene::Scene& scene, scene::MaterialType type) {
+bool scene_uses(const scene::Scene& scene, std::string_view type) {
   return std::any_of(scene.materials.begin(), scene.materials.end(),
                      [&](const scene::Material& m) { return m.type == type; });
 }
@@ -263,7 +265,7 @@ bool scene_uses(const scene::Scene& scene, scene::MaterialType type) {
 Result<void> apply_setting(scene::Scene& scene, const Study& study, const Setting& setting) {
   if (!scene_uses(scene, study.material))
     return fail(ErrorKind::InvalidArgument, "the scene has no '{}' material, so there is nothing for the {} study to sweep",
-                scene::to_string(study.material), study.feature);
+                study.material, study.feature);
   for (auto& material : scene.materials) {
     if (material.type != study.material) continue;
     if (!material.params.is_object()) material.params = json::object();

@@ -1,6 +1,6 @@
 // weft.tradeoff — the speed/accuracy study of the features (`weft tradeoff`, docs/tradeoffs.md):
-// which quality knobs each feature has and what its reference is (the catalogue, one entry
-// per feature in catalogue.cpp), the settings a sweep renders, error against the reference
+// which quality knobs each feature has and what its reference is (read from the feature
+// registry: each feature's descriptor is its catalogue entry), the settings a sweep renders, error against the reference
 // over the feature's pixels, the Pareto front, and the CSV / SVG / markdown reports.
 //
 // Nothing here touches a GPU: the `weft tradeoff` command renders the settings with the
@@ -28,23 +28,12 @@ import weft.feature;
 export namespace weft::tradeoff {
 
 // ---- knobs and studies ---------------------------------------------------------------------
-enum class KnobKind : std::uint8_t { Integer, Number, Boolean, Choice };
-
-struct Knob {
-  std::string name;                    // the material field; '.' descends into objects: "lut.size"
-  KnobKind kind = KnobKind::Integer;
-  double min = 0.0, max = 0.0;         // Integer, Number: inclusive, as the material accepts
-  std::vector<std::string> choices;    // Choice
-  std::vector<nlohmann::json> sweep;   // the values a sweep tries, one at a time
-  std::string meaning;                 // one line, for `--list` and the docs
-};
-
-// What a setting costs on the x axis of the plot.
-enum class CostAxis : std::uint8_t {
-  Frame,      // steady frame: median GPU time of the frames after the first
-  ColdFrame,  // the first frame with empty caches: the feature's bakes (LUTs) plus one frame
-};
-std::string_view to_string(CostAxis axis);
+// The knob table is the feature's own (weft.feature's FeatureDescriptor); a study is the
+// descriptor seen by the sweep.
+using weft::CostAxis;
+using weft::Knob;
+using weft::KnobKind;
+using weft::to_string;
 
 // One point of a sweep: a quality preset and knob values written into the feature's materials.
 struct Setting {
@@ -58,29 +47,24 @@ struct Setting {
 };
 
 struct Study {
-  std::string feature;                        // the --feature name: "fur"
-  scene::MaterialType material = scene::MaterialType::Standard;
+  std::string feature;                        // the feature's name, also its --feature and material type
+  std::string material;                       // the material type the study writes into
   std::vector<std::string> passes;           // the feature's graph passes ("shell_fur"), for their GPU time
   std::vector<Knob> knobs;
   Setting reference;                          // the most accurate setting the feature has
-  std::string reference_why;                  // one line; docs/tradeoffs.md says more
+  std::string reference_why;                  // one line; the feature's doc says more
   CostAxis cost = CostAxis::Frame;
-  // Pairs of knobs whose sweeps are crossed (cheap ones only); others are one at a time.
   std::vector<std::pair<std::string, std::string>> grids;
-  // Environment variables set while the study runs: an empty WEFT_SKIN_LUT_CACHE turns the
-  // skin LUT's disk cache off, so LUT bakes are timed cold on every run.
   std::vector<std::pair<std::string, std::string>> environment;
-  // The knob values the feature's pass gives each quality preset (read from the pass, so the
-  // presets the study measures are the ones `weft render --quality` uses).
   nlohmann::json (*preset_values)(Quality) = nullptr;
-  // Drops the feature's process-wide caches (baked LUTs), so every setting's first frame
-  // bakes cold; the renderer's own caches go with a fresh Renderer. May be null.
   void (*clear_caches)() = nullptr;
+  const FeatureDescriptor* descriptor = nullptr;  // where all of this comes from
 };
 
-// Every feature the study knows, in catalogue order (fur, skin, then the slots that are filled).
-std::span<const Study> studies();
-// NotFound naming the known features when `feature` is not one of them.
+// One study per registered feature (weft::feature_registry()), in registration order.
+// Pointers stay valid; features registered later are added on the next call.
+std::vector<const Study*> studies();
+// By the feature's name or alias; NotFound naming the registered features otherwise.
 Result<const Study*> find_study(std::string_view feature);
 Result<const Knob*> find_knob(const Study& study, std::string_view name);
 
@@ -107,7 +91,7 @@ std::vector<Setting> extreme_settings(const Study& study, const nlohmann::json& 
 // Writes the setting into every material of the study's type (removing the knobs first
 // when the setting strips them). InvalidArgument when the scene has no such material.
 Result<void> apply_setting(scene::Scene& scene, const Study& study, const Setting& setting);
-bool scene_uses(const scene::Scene& scene, scene::MaterialType type);
+bool scene_uses(const scene::Scene& scene, std::string_view material_type);
 
 // ---- measuring -------------------------------------------------------------------------------
 // The pixels the feature covers: where `covered_a` and `covered_b` (the feature's objects

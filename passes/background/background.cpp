@@ -2,8 +2,9 @@ module;
 #include <expected>
 #include <memory>
 #include <vector>
+#include <weft/try.h>
 #include "weft_pass_background_shaders.h"
-module weft.pass.background;
+module weft.base_pass.background;
 import weft.core;
 import weft.gpu;
 import weft.graph;
@@ -52,22 +53,15 @@ Result<void> BackgroundPass::add(RenderGraph& graph) const {
     BufferHandle uniforms;
     TextureHandle environment, color, depth;
   };
-  auto& board = graph.blackboard();
-  auto uniforms = board.get<BufferHandle>("frame_uniforms");
-  auto environment = board.get<TextureHandle>("environment");
-  auto color = board.get<TextureHandle>("scene_color");
-  auto depth = board.get<TextureHandle>("scene_depth");
-  for (const Error* e : {uniforms ? nullptr : &uniforms.error(), environment ? nullptr : &environment.error(),
-                         color ? nullptr : &color.error(), depth ? nullptr : &depth.error()})
-    if (e) return std::unexpected(*e);
+  WEFT_TRY(const frame::SceneTargets shared, frame::scene_targets(graph.blackboard(), {.shadow_map = false}));
   auto state = state_;
   auto& data = graph.add_pass<Data>(
       "background",
       [&](PassBuilder& b, Data& d) {
-        d.uniforms = b.read(*uniforms, BufferUse::Uniform);
-        d.environment = b.read(*environment, TextureUse::Sampled);
-        d.depth = b.read(*depth, TextureUse::DepthRead);
-        d.color = b.write(*color, TextureUse::ColorAttachment);
+        d.uniforms = b.read(shared.uniforms, BufferUse::Uniform);
+        d.environment = b.read(shared.environment, TextureUse::Sampled);
+        d.depth = b.read(shared.depth, TextureUse::DepthRead);
+        d.color = b.write(shared.color, TextureUse::ColorAttachment);
       },
       [state](const PassResources& res, const Data& d, PassContext& ctx) {
         auto group = ctx.device().create_bind_group(
@@ -85,7 +79,7 @@ Result<void> BackgroundPass::add(RenderGraph& graph) const {
         pass.draw(3);
         pass.end();
       });
-  board.put("scene_color", data.color);
+  frame::put_scene_targets(graph.blackboard(), {.color = data.color});
   return {};
 }
 

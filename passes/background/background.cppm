@@ -1,9 +1,9 @@
-// weft.pass.background — draws the "environment" behind everything: a full-screen triangle
+// weft.base_pass.background — draws the "environment" behind everything: a full-screen triangle
 // at the far plane, depth-tested against "scene_depth" (read-only), into "scene_color".
 module;
 #include <expected>
 #include <memory>
-export module weft.pass.background;
+export module weft.base_pass.background;
 import weft.core;
 import weft.gpu;
 import weft.graph;

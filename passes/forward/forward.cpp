@@ -5,7 +5,7 @@ module;
 #include <span>
 #include <vector>
 #include "weft_pass_forward_shaders.h"
-module weft.pass.forward;
+module weft.base_pass.forward;
 import weft.core;
 import weft.gpu;
 import weft.graph;
@@ -74,41 +74,19 @@ Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
 }
 
 Result<void> ForwardPass::add(RenderGraph& graph, std::span<const frame::DrawItem> items, vec4 clear_color) const {
-  struct Data {
-    BufferHandle uniforms;
-    TextureHandle shadow_map, environment, color, depth;
-  };
-  auto& board = graph.blackboard();
-  auto uniforms = board.get<BufferHandle>("frame_uniforms");
-  auto shadow_map = board.get<TextureHandle>("shadow_map");
-  auto environment = board.get<TextureHandle>("environment");
-  if (!uniforms) return std::unexpected(uniforms.error());
-  if (!shadow_map) return std::unexpected(shadow_map.error());
-  if (!environment) return std::unexpected(environment.error());
   auto state = state_;
-  auto& data = graph.add_pass<Data>(
-      "forward",
-      [&](PassBuilder& b, Data& d) {
-        d.uniforms = b.read(*uniforms, BufferUse::Uniform);
-        d.shadow_map = b.read(*shadow_map, TextureUse::Sampled);
-        d.environment = b.read(*environment, TextureUse::Sampled);
-        d.color = b.write(b.create_texture("scene_color", {.size = RelativeSize{1.0f}, .format = scene_color_format}),
-                          TextureUse::ColorAttachment);
-        d.depth = b.write(b.create_texture("scene_depth", {.size = RelativeSize{1.0f}, .format = scene_depth_format}),
-                          TextureUse::DepthAttachment);
-      },
-      [state, items, clear_color](const PassResources& res, const Data& d, PassContext& ctx) {
+  return frame::add_scene_color_pass(
+      graph, {.name = "forward", .reads_environment = true, .clear_color = clear_color},
+      [state, items](frame::ScenePassDraw& draw) {
+        PassContext& ctx = draw.context;
         auto group = ctx.device().create_bind_group(
             {.label = "forward",
              .layout = &state->bind_layout,
-             .entries = {gpu::bind(0, res.buffer(d.uniforms)), gpu::bind(1, res.view(d.shadow_map), &state->shadow_sampler),
-                         gpu::bind(2, res.view(d.environment), &state->environment_sampler)}});
+             .entries = {gpu::bind(0, draw.uniforms), gpu::bind(1, draw.shadow_map, &state->shadow_sampler),
+                         gpu::bind(2, *draw.environment, &state->environment_sampler)}});
         if (!group) return ctx.encoder().report_error(group.error());
         const auto& frame_group = ctx.keep(std::move(*group));  // alive until the frame is done
-        auto pass = ctx.encoder().begin_render_pass(
-            {.label = "forward",
-             .color_attachments = {{.view = &res.view(d.color), .clear_color = clear_color}},
-             .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth)}});
+        gpu::RenderPassEncoder& pass = draw.pass;
         pass.set_pipeline(state->pipeline);
         pass.set_bind_group(0, frame_group);
         // One material bind group per distinct base colour map (textures are imported
@@ -137,11 +115,7 @@ Result<void> ForwardPass::add(RenderGraph& graph, std::span<const frame::DrawIte
           pass.set_index_buffer(item.mesh->indices);
           pass.draw_indexed(item.mesh->index_count);
         }
-        pass.end();
       });
-  board.put("scene_color", data.color);
-  board.put("scene_depth", data.depth);
-  return {};
 }
 
 }  // namespace weft::passes

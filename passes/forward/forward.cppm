@@ -1,13 +1,13 @@
-// weft.pass.forward — opaque standard (PBR) materials: creates the frame's HDR colour and
-// depth ("scene_color", "scene_depth") and shades Lambert + GGX under the key light (with
-// the "shadow_map") and the "environment". Feature passes then draw into the same targets.
+// weft.base_pass.forward — opaque standard (PBR) materials: creates the frame's HDR colour and
+// depth (frame::SceneTargets) and shades Lambert + GGX under the key light (with the shadow
+// map) and the environment. Feature passes then draw into the same targets.
 module;
 #include <cstdint>
 #include <expected>
 #include <memory>
 #include <span>
 #include <vector>
-export module weft.pass.forward;
+export module weft.base_pass.forward;
 import weft.core;
 import weft.gpu;
 import weft.graph;
@@ -15,14 +15,15 @@ import weft.frame;
 
 export namespace weft::passes {
 
-inline constexpr gpu::Format scene_color_format = gpu::Format::RGBA16Float;
-inline constexpr gpu::Format scene_depth_format = gpu::Format::Depth32Float;
+using frame::scene_color_format;
+using frame::scene_depth_format;
 
 class ForwardPass {
  public:
   static Result<ForwardPass> create(gpu::Device& device);
-  // Needs "frame_uniforms", "shadow_map" and "environment" on the blackboard; puts
-  // "scene_color" and "scene_depth". `items` must outlive the graph's execution.
+  // The frame's first lit pass (frame::add_scene_color_pass with a clear colour): needs the
+  // uniforms, shadow map and environment of frame::SceneTargets on the blackboard, creates
+  // and puts the scene colour and depth. `items` must outlive the graph's execution.
   Result<void> add(RenderGraph& graph, std::span<const frame::DrawItem> items, vec4 clear_color = {0, 0, 0, 1}) const;
 
  private:

@@ -14,6 +14,7 @@ module;
 #include <vector>
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
+#include <weft/try.h>
 module weft.pass.neural_btf;
 import weft.core;
 import weft.gpu;
@@ -28,7 +29,7 @@ namespace {
 
 class NeuralBtfFeature final : public FeaturePass {
  public:
-  NeuralBtfFeature(gpu::Device& device, NeuralBtfPass pass) : device_(&device), pass_(std::move(pass)) {}
+  NeuralBtfFeature(gpu::Device& device, NeuralBTFMaterial pass) : device_(&device), pass_(std::move(pass)) {}
 
   [[nodiscard]] std::string_view name() const override { return "neural_btf"; }
 
@@ -115,7 +116,7 @@ class NeuralBtfFeature final : public FeaturePass {
   }
 
   gpu::Device* device_;
-  NeuralBtfPass pass_;
+  NeuralBTFMaterial pass_;
   std::map<std::uint64_t, std::unique_ptr<GpuBtfModel>> models_;  // by path, time and size
   std::map<std::uint64_t, std::shared_ptr<NeuralBtfGpuMaterial>> materials_;
   // This frame's inputs, alive until the graph has executed.
@@ -126,10 +127,51 @@ class NeuralBtfFeature final : public FeaturePass {
 
 }  // namespace
 
-Result<std::unique_ptr<FeaturePass>> create_neural_btf_feature(gpu::Device& device) {
-  auto pass = NeuralBtfPass::create(device);
-  if (!pass) return std::unexpected(pass.error());
-  return std::make_unique<NeuralBtfFeature>(device, std::move(*pass));
+namespace {
+
+Result<std::unique_ptr<FeaturePass>> create_feature(gpu::Device& device) {
+  WEFT_TRY(auto pass, NeuralBTFMaterial::create(device));
+  return std::make_unique<NeuralBtfFeature>(device, std::move(pass));
+}
+
+Result<void> check_material(const scene::Material& material) {
+  WEFT_TRY_VOID(btf::parse_neural_btf_material(material));
+  return {};
+}
+
+}  // namespace
+
+// The model's own knobs (clusters, latent size, fp16) are bake-time (weft bake btf) and
+// measured against the raw BTF by weft-bench-btf-train; here the shading knobs: decodes per
+// pixel. Quality: low = nearest, no ambient; medium = nearest + ambient; high and reference =
+// bilinear + ambient (docs/neural-btf.md).
+const FeatureDescriptor& neural_btf_feature() {
+  static const FeatureDescriptor feature = [] {
+    FeatureDescriptor d;
+    d.name = "neural_btf";
+    d.aliases = {"btf"};
+    d.summary = "measured fabrics: a neural BTF decoded per pixel in the fragment shader";
+    d.doc = "docs/neural-btf.md";
+    d.check_material = &check_material;
+    d.create = &create_feature;
+    d.passes = {"neural_btf"};
+    d.knobs = {
+        choice_knob("filter", {"nearest", "bilinear"}, "texels decoded per light: 1, or 4 blended"),
+        boolean_knob("ambient", "one more decode (ω_i = n) times the environment's SH irradiance"),
+        boolean_knob("shadow", "the key light's shadow map (3x3 PCF)"),
+    };
+    d.preset_values = [](Quality q) -> nlohmann::json {
+      const auto p = btf::neural_btf_quality_preset(q);
+      return {{"filter", std::string(btf::to_string(p.filter))}, {"ambient", p.ambient}};
+    };
+    d.reference = {{"filter", "bilinear"}, {"ambient", true}, {"shadow", true}};
+    d.reference_why = "bilinear texels, ambient and shadow: every decode the material can make (the model's "
+                      "error against the raw BTF is weft-bench-btf-train's)";
+    d.cost = CostAxis::Frame;
+    d.grids = {{"filter", "ambient"}};
+    return d;
+  }();
+  return feature;
 }
 
 }  // namespace weft::passes

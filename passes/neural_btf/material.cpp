@@ -34,9 +34,9 @@ NeuralBtfQualityPreset neural_btf_quality_preset(Quality quality) {
           .filter = quality == Quality::High || quality == Quality::Reference ? TexelFilter::Bilinear : TexelFilter::Nearest};
 }
 
-Result<NeuralBtfMaterial> parse_neural_btf_material(const scene::Material& material, Quality quality) {
+Result<NeuralBtfParams> parse_neural_btf_material(const scene::Material& material, Quality quality) {
   try {
-    NeuralBtfMaterial m;
+    NeuralBtfParams m;
     const NeuralBtfQualityPreset q = neural_btf_quality_preset(quality);
     m.ambient = q.ambient;
     m.filter = q.filter;
@@ -61,7 +61,8 @@ Result<NeuralBtfMaterial> parse_neural_btf_material(const scene::Material& mater
       m.exposure = float(r.number("exposure", m.exposure, {.min = 0, .max = 1e6}));
       m.tint = r.vec3_of("tint", m.tint, {.min = 0, .max = 1e6});
       m.ambient = r.boolean("ambient", m.ambient);
-      m.filter = r.string("filter", std::string(to_string(m.filter)), {"nearest", "bilinear"}) == "bilinear"
+      m.filter = read_choice_knob(r, *find_knob(passes::neural_btf_feature().knobs, "filter"),
+                                  std::string(to_string(m.filter))) == "bilinear"
                      ? TexelFilter::Bilinear
                      : TexelFilter::Nearest;
       m.shadow = r.boolean("shadow", m.shadow);

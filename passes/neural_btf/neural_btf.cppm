@@ -3,7 +3,7 @@
 // cluster id and scale in one read-only storage buffer; ω_i (the key light, and optionally
 // ω_i = n for the ambient term) and ω_o go into the surface's tangent frame. Also here: the
 // decode kernel (a compute shader with the same decoder) that tests compare with the CPU
-// decode and the benchmark times, and the FeaturePass for scene::MaterialType::NeuralBtf.
+// decode and the benchmark times, and the feature descriptor (neural_btf_feature).
 // docs/neural-btf.md, "The material and its shader", has the choices and the measurements.
 //
 // Why the fragment shader and not a compute pass: the decoder needs only what the rasteriser
@@ -41,7 +41,7 @@ std::string_view to_string(TexelFilter f);
 std::string_view to_string(BtfDebugView d);
 
 // A "neural_btf" material's fields (docs/neural-btf.md lists them with their JSON names).
-struct NeuralBtfMaterial {
+struct NeuralBtfParams {
   std::filesystem::path model;  // .wbtf, relative to the scene file
   vec2 uv_scale{1.0f};          // how many times the texel grid repeats over the mesh's UVs
   BtfMode mode = BtfMode::Neural;
@@ -64,7 +64,7 @@ struct NeuralBtfQualityPreset {
 NeuralBtfQualityPreset neural_btf_quality_preset(Quality quality);
 // Reads a scene material's params with JsonReader: every problem in one Parse error, each at
 // its JSON path; `quality` sets the knobs it leaves out (neural_btf_quality_preset).
-Result<NeuralBtfMaterial> parse_neural_btf_material(const scene::Material& material, Quality quality = Quality::Medium);
+Result<NeuralBtfParams> parse_neural_btf_material(const scene::Material& material, Quality quality = Quality::Medium);
 
 }  // namespace weft::btf
 
@@ -126,7 +126,7 @@ class BtfDecodeKernel {
 struct NeuralBtfDraw {
   const frame::GpuMesh* mesh = nullptr;
   mat4 model{1.0f};
-  std::uint32_t material = 0;  // index into the materials given to NeuralBtfPass::add
+  std::uint32_t material = 0;  // index into the materials given to NeuralBTFMaterial::add
 };
 
 // A material on the GPU: its parameters, its model buffer and their bind group.
@@ -134,11 +134,11 @@ struct NeuralBtfGpuMaterial;
 
 // The graph pass: draws neural BTF objects into "scene_color"/"scene_depth" (loading what
 // the forward pass drew), reading "frame_uniforms" and "shadow_map".
-class NeuralBtfPass {
+class NeuralBTFMaterial {
  public:
-  static Result<NeuralBtfPass> create(gpu::Device& device);
+  static Result<NeuralBTFMaterial> create(gpu::Device& device);
   // `model` (from upload_model) must outlive the material.
-  Result<std::shared_ptr<NeuralBtfGpuMaterial>> create_material(gpu::Device& device, const btf::NeuralBtfMaterial& params,
+  Result<std::shared_ptr<NeuralBtfGpuMaterial>> create_material(gpu::Device& device, const btf::NeuralBtfParams& params,
                                                                 const GpuBtfModel& model) const;
   // `draws` and `materials` must outlive the graph's execution; the materials' model buffers
   // are imported and declared as storage reads.
@@ -150,8 +150,8 @@ class NeuralBtfPass {
   std::shared_ptr<State> state_;
 };
 
-// The FeaturePass for scene::MaterialType::NeuralBtf (registered in the renderer's
-// features.cpp). Models are loaded once per file (path and modification time).
-Result<std::unique_ptr<FeaturePass>> create_neural_btf_feature(gpu::Device& device);
+// The feature: material type "neural_btf" (alias "btf", its old --feature name), its knob
+// table, its FeaturePass. Models are loaded once per file (path and modification time).
+const FeatureDescriptor& neural_btf_feature();
 
 }  // namespace weft::passes

@@ -1,4 +1,4 @@
-// The model buffer (pack_model), the decode kernel (compute) and NeuralBtfPass (the graph
+// The model buffer (pack_model), the decode kernel (compute) and NeuralBTFMaterial (the graph
 // pass: pipeline, bind groups, draws).
 module;
 #include <algorithm>
@@ -26,8 +26,8 @@ import weft.btf.model;
 namespace weft::passes {
 
 namespace {
-constexpr gpu::Format color_format = gpu::Format::RGBA16Float;  // weft.pass.forward's scene_color
-constexpr gpu::Format depth_format = gpu::Format::Depth32Float;
+constexpr gpu::Format color_format = frame::scene_color_format;
+constexpr gpu::Format depth_format = frame::scene_depth_format;
 constexpr std::uint32_t kNone = 0xffffffffu;
 constexpr std::size_t kHeaderWords = 4 + 4 + 4 + 4 * kBtfMaxLayers;  // shape, offsets, scales, layers
 
@@ -210,12 +210,12 @@ Result<std::vector<vec4>> BtfDecodeKernel::decode(gpu::Device& device, const Gpu
 // ---- the graph pass ----------------------------------------------------------------------------
 
 struct NeuralBtfGpuMaterial {
-  btf::NeuralBtfMaterial params;
+  btf::NeuralBtfParams params;
   const gpu::Buffer* model = nullptr;
   gpu::BindGroup group;
 };
 
-struct NeuralBtfPass::State {
+struct NeuralBTFMaterial::State {
   gpu::BindGroupLayout frame_layout;
   gpu::BindGroupLayout material_layout;
   gpu::PipelineLayout layout;
@@ -225,7 +225,7 @@ struct NeuralBtfPass::State {
   gpu::Sampler shadow_compare;
 };
 
-Result<NeuralBtfPass> NeuralBtfPass::create(gpu::Device& device) {
+Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
   using gpu::BindingType;
   using gpu::ShaderStage;
   auto vs = device.create_shader_module(
@@ -250,14 +250,14 @@ Result<NeuralBtfPass> NeuralBtfPass::create(gpu::Device& device) {
   if (!pipeline) return std::unexpected(pipeline.error());
   auto shadow_compare = frame::create_shadow_compare_sampler(device, "neural-btf-shadow");
   if (!shadow_compare) return std::unexpected(shadow_compare.error());
-  NeuralBtfPass pass;
+  NeuralBTFMaterial pass;
   pass.state_ = std::make_shared<State>(State{std::move(*frame_layout), std::move(*material_layout), std::move(*layout),
                                               std::move(*pipeline), std::move(*shadow_compare)});
   return pass;
 }
 
-Result<std::shared_ptr<NeuralBtfGpuMaterial>> NeuralBtfPass::create_material(gpu::Device& device,
-                                                                             const btf::NeuralBtfMaterial& params,
+Result<std::shared_ptr<NeuralBtfGpuMaterial>> NeuralBTFMaterial::create_material(gpu::Device& device,
+                                                                             const btf::NeuralBtfParams& params,
                                                                              const GpuBtfModel& model) const {
   auto group = device.create_bind_group(
       {.label = "neural-btf-model", .layout = &state_->material_layout, .entries = {gpu::bind(0, model.buffer)}});
@@ -266,20 +266,8 @@ Result<std::shared_ptr<NeuralBtfGpuMaterial>> NeuralBtfPass::create_material(gpu
       NeuralBtfGpuMaterial{params, &model.buffer, std::move(*group)});
 }
 
-Result<void> NeuralBtfPass::add(RenderGraph& graph, std::span<const NeuralBtfDraw> draws,
+Result<void> NeuralBTFMaterial::add(RenderGraph& graph, std::span<const NeuralBtfDraw> draws,
                                 std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials) const {
-  struct Data {
-    BufferHandle uniforms;
-    TextureHandle shadow_map, color, depth;
-  };
-  auto& board = graph.blackboard();
-  auto uniforms = board.get<BufferHandle>("frame_uniforms");
-  auto shadow_map = board.get<TextureHandle>("shadow_map");
-  auto color = board.get<TextureHandle>("scene_color");
-  auto depth = board.get<TextureHandle>("scene_depth");
-  for (const Error* e : {uniforms ? nullptr : &uniforms.error(), shadow_map ? nullptr : &shadow_map.error(),
-                         color ? nullptr : &color.error(), depth ? nullptr : &depth.error()})
-    if (e) return std::unexpected(*e);
   for (const auto& d : draws)
     if (!d.mesh || d.material >= materials.size() || !materials[d.material])
       return fail(ErrorKind::InvalidArgument, "neural BTF pass: a draw names material {} of {} (or has no mesh)",
@@ -288,55 +276,39 @@ Result<void> NeuralBtfPass::add(RenderGraph& graph, std::span<const NeuralBtfDra
   std::vector<const gpu::Buffer*> models;
   for (const auto& m : materials)
     if (std::find(models.begin(), models.end(), m->model) == models.end()) models.push_back(m->model);
-  std::vector<BufferHandle> model_handles;
+  frame::ScenePassDesc desc{.name = "neural_btf"};
   for (std::size_t i = 0; i < models.size(); ++i)
-    model_handles.push_back(graph.import_buffer(
-        models.size() == 1 ? std::string("neural_btf_model") : weft::format("neural_btf_model_{}", i), models[i],
-        gpu::Access::ShaderRead));
+    desc.buffers.push_back(
+        {models.size() == 1 ? std::string("neural_btf_model") : weft::format("neural_btf_model_{}", i), models[i]});
   auto state = state_;
-  auto& data = graph.add_pass<Data>(
-      "neural_btf",
-      [&](PassBuilder& b, Data& d) {
-        d.uniforms = b.read(*uniforms, BufferUse::Uniform);
-        d.shadow_map = b.read(*shadow_map, TextureUse::Sampled);
-        for (auto h : model_handles) b.read(h, BufferUse::StorageRead);
-        d.color = b.write(*color, TextureUse::ColorAttachment);
-        d.depth = b.write(*depth, TextureUse::DepthAttachment);
-      },
-      [state, draws, materials](const PassResources& res, const Data& d, PassContext& ctx) {
-        auto group = ctx.device().create_bind_group(
-            {.label = "neural-btf-frame",
-             .layout = &state->frame_layout,
-             .entries = {gpu::bind(0, res.buffer(d.uniforms)), gpu::bind(1, res.view(d.shadow_map), &state->shadow_compare)}});
-        if (!group) return ctx.encoder().report_error(group.error());
-        const auto& frame_group = ctx.keep(std::move(*group));
-        auto pass = ctx.encoder().begin_render_pass(
-            {.label = "neural_btf",
-             .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}},
-             .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .load = gpu::LoadOp::Load}});
-        pass.set_pipeline(state->pipeline);
-        pass.set_bind_group(0, frame_group);
-        for (const NeuralBtfDraw& draw : draws) {
-          const NeuralBtfGpuMaterial& mat = *materials[draw.material];
-          const btf::NeuralBtfMaterial& m = mat.params;
-          const int flags = (m.ambient ? flag_ambient : 0) | (m.filter == btf::TexelFilter::Bilinear ? flag_bilinear : 0) |
-                            (m.shadow ? flag_shadow : 0);
-          NeuralBtfConstants c{};
-          c.model = draw.model;
-          c.uv_scale = vec4(m.uv_scale, float(flags), m.exposure);
-          c.tint = vec4(m.tint, 1.0f);
-          c.debug = vec4(float(int(m.debug_view)), 0.0f, 0.0f, 0.0f);
-          pass.set_bind_group(1, mat.group);
-          pass.push(c);
-          pass.set_vertex_buffer(0, draw.mesh->vertices);
-          pass.set_index_buffer(draw.mesh->indices);
-          pass.draw_indexed(draw.mesh->index_count);
-        }
-        pass.end();
-      });
-  board.put("scene_color", data.color);
-  board.put("scene_depth", data.depth);
-  return {};
+  return frame::add_scene_color_pass(graph, std::move(desc), [state, draws, materials](frame::ScenePassDraw& scene) {
+    PassContext& ctx = scene.context;
+    auto group = ctx.device().create_bind_group(
+        {.label = "neural-btf-frame",
+         .layout = &state->frame_layout,
+         .entries = {gpu::bind(0, scene.uniforms), gpu::bind(1, scene.shadow_map, &state->shadow_compare)}});
+    if (!group) return ctx.encoder().report_error(group.error());
+    const auto& frame_group = ctx.keep(std::move(*group));
+    gpu::RenderPassEncoder& pass = scene.pass;
+    pass.set_pipeline(state->pipeline);
+    pass.set_bind_group(0, frame_group);
+    for (const NeuralBtfDraw& draw : draws) {
+      const NeuralBtfGpuMaterial& mat = *materials[draw.material];
+      const btf::NeuralBtfParams& m = mat.params;
+      const int flags = (m.ambient ? flag_ambient : 0) | (m.filter == btf::TexelFilter::Bilinear ? flag_bilinear : 0) |
+                        (m.shadow ? flag_shadow : 0);
+      NeuralBtfConstants c{};
+      c.model = draw.model;
+      c.uv_scale = vec4(m.uv_scale, float(flags), m.exposure);
+      c.tint = vec4(m.tint, 1.0f);
+      c.debug = vec4(float(int(m.debug_view)), 0.0f, 0.0f, 0.0f);
+      pass.set_bind_group(1, mat.group);
+      pass.push(c);
+      pass.set_vertex_buffer(0, draw.mesh->vertices);
+      pass.set_index_buffer(draw.mesh->indices);
+      pass.draw_indexed(draw.mesh->index_count);
+    }
+  });
 }
 
 }  // namespace weft::passes

@@ -6,7 +6,7 @@ module;
 #include <span>
 #include <glm/gtc/matrix_transform.hpp>
 #include "weft_pass_shadow_shaders.h"
-module weft.pass.shadow;
+module weft.base_pass.shadow;
 import weft.core;
 import weft.gpu;
 import weft.graph;
@@ -71,7 +71,7 @@ TextureHandle ShadowPass::add(RenderGraph& graph, std::span<const frame::DrawIte
         }
         pass.end();
       });
-  graph.blackboard().put("shadow_map", data.depth);
+  frame::put_scene_targets(graph.blackboard(), {.shadow_map = data.depth});
   return data.depth;
 }
 

@@ -1,10 +1,10 @@
-// weft.pass.shadow — a depth map of every draw item seen from the key (directional) light.
+// weft.base_pass.shadow — a depth map of every draw item seen from the key (directional) light.
 // Writes the blackboard's "shadow_map"; the forward and feature passes sample it.
 module;
 #include <cstdint>
 #include <expected>
 #include <span>
-export module weft.pass.shadow;
+export module weft.base_pass.shadow;
 import weft.core;
 import weft.gpu;
 import weft.graph;

@@ -1,4 +1,5 @@
-// The fur feature: what the renderer creates for scenes with "fur" materials. It parses each
+// The shell_fur feature: its descriptor (registration), and what the renderer creates for
+// scenes with "shell_fur" (or "fur") materials. It parses each
 // material, loads and analyses its photo, builds band tables, generated UVs and fins, caching
 // each by content so a second frame uploads nothing, and adds one ShellFurPass.
 module;
@@ -14,6 +15,8 @@ module;
 #include <utility>
 #include <vector>
 #include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
+#include <weft/try.h>
 module weft.pass.shell_fur;
 import weft.core;
 import weft.gpu;
@@ -164,10 +167,48 @@ class ShellFurFeature final : public FeaturePass {
 
 }  // namespace
 
-Result<std::unique_ptr<FeaturePass>> create_shell_fur_feature(gpu::Device& device) {
-  auto pass = ShellFurPass::create(device);
-  if (!pass) return std::unexpected(pass.error());
-  return std::unique_ptr<FeaturePass>(std::make_unique<ShellFurFeature>(device, std::move(*pass)));
+namespace {
+
+Result<std::unique_ptr<FeaturePass>> create_feature(gpu::Device& device) {
+  WEFT_TRY(auto pass, ShellFurPass::create(device));
+  return std::unique_ptr<FeaturePass>(std::make_unique<ShellFurFeature>(device, std::move(pass)));
+}
+
+Result<void> check_material(const scene::Material& material) {
+  WEFT_TRY_VOID(parse_fur_material(material));
+  return {};
+}
+
+}  // namespace
+
+// Quality picks `layers` (8 / 15 / 32 / 64); docs/fur.md and docs/tradeoffs.md say more.
+const FeatureDescriptor& shell_fur_feature() {
+  static const FeatureDescriptor feature = [] {
+    FeatureDescriptor d;
+    d.name = "shell_fur";
+    d.aliases = {"fur"};
+    d.summary = "fur grown as shells and fins from one photograph of fur";
+    d.doc = "docs/fur.md";
+    d.check_material = &check_material;
+    d.create = &create_feature;
+    d.passes = {"shell_fur"};
+    d.knobs = {
+        integer_knob("layers", 1, max_fur_layers, {1, 2, 4, 8, 15, 32, 64, 128},
+                     "shells N: the height field's depth resolution"),
+        boolean_knob("fins", "silhouette fins (Lengyel): one quad per edge near the silhouette"),
+        number_knob("fin_threshold", 0, 1, {0.1, 0.35, 0.7}, "|N.V| below which an edge grows a fin"),
+    };
+    d.preset_values = [](Quality q) -> nlohmann::json { return {{"layers", fur_layers_for(q)}}; };
+    // As N grows the strand shells converge to the continuous height field the photo
+    // describes (the gap between shells, h_b / N, falls below a pixel); fins patch the gaps
+    // of few shells at grazing angles, so the limit has none.
+    d.reference = {{"layers", max_fur_layers}, {"fins", false}};
+    d.reference_why = "256 shells (the most the material takes), no fins: the limit the shells converge to";
+    d.cost = CostAxis::Frame;
+    d.grids = {{"layers", "fins"}};
+    return d;
+  }();
+  return feature;
 }
 
 }  // namespace weft::passes

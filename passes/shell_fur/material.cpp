@@ -1,4 +1,4 @@
-// The "fur" material of the scene format, read with weft.scene's JsonReader so every bad
+// The "shell_fur" material of the scene format, read with weft.scene's JsonReader so every bad
 // field is reported at its JSON path, all at once.
 module;
 #include <cmath>
@@ -38,9 +38,10 @@ float FurMaterial::thickness_for(float diagonal) const {
 
 Result<FurMaterial> parse_fur_material(const scene::Material& material, Quality quality) {
   const std::string where = material.json_path.empty() ? "$.materials." + material.name : material.json_path;
-  if (material.type != scene::MaterialType::Fur)
-    return fail(ErrorKind::InvalidArgument, "material '{}' ({}) is a {} material, not fur", material.name, where,
-                scene::to_string(material.type));
+  const FeatureDescriptor& feature = shell_fur_feature();
+  if (material.type != feature.name)
+    return fail(ErrorKind::InvalidArgument, "material '{}' ({}) is a {} material, not {}", material.name, where,
+                material.type, feature.name);
   scene::JsonErrors errors;
   scene::JsonReader r(material.params, where, errors, material.base_dir);
   constexpr double inf = std::numeric_limits<double>::infinity();
@@ -49,7 +50,7 @@ Result<FurMaterial> parse_fur_material(const scene::Material& material, Quality 
   FurMaterial m;
   if (r.require("photo")) m.photo = r.path("photo", true);
   if (r.has("layers")) {
-    m.layers = std::uint32_t(r.integer("layers", 15, {.min = 1, .max = double(max_fur_layers)}));
+    m.layers = std::uint32_t(read_integer_knob(r, *find_knob(feature.knobs, "layers"), 15));
     m.layers_from_quality = false;
   } else {
     m.layers = fur_layers_for(quality);
@@ -85,7 +86,7 @@ Result<FurMaterial> parse_fur_material(const scene::Material& material, Quality 
   m.specular = float(r.number("specular", m.specular, non_negative));
   m.shininess = float(r.number("shininess", m.shininess, {.min = 1.0, .max = 10000.0}));
   m.fins = r.boolean("fins", m.fins);
-  m.fin_threshold = float(r.number("fin_threshold", m.fin_threshold, unit));
+  m.fin_threshold = float(read_number_knob(r, *find_knob(feature.knobs, "fin_threshold"), m.fin_threshold));
   r.finish();
   if (!errors.empty()) return std::unexpected(errors.to_error(weft::format("fur material '{}'", material.name)));
   return m;

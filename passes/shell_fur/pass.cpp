@@ -22,8 +22,8 @@ namespace weft::passes {
 
 namespace {
 
-constexpr gpu::Format color_format = gpu::Format::RGBA16Float;  // the frame's "scene_color"
-constexpr gpu::Format depth_format = gpu::Format::Depth32Float;  // the frame's "scene_depth"
+constexpr gpu::Format color_format = frame::scene_color_format;
+constexpr gpu::Format depth_format = frame::scene_depth_format;
 
 // The push constants of fur_common.glsl (128 bytes, the guaranteed minimum).
 struct FurPush {
@@ -193,109 +193,70 @@ Result<void> ShellFurPass::add(RenderGraph& graph, std::span<const ShellFurDraw>
                   "without textures (pass the photo to upload_band_table)",
                   i, d.mesh->name);
   }
-  auto& board = graph.blackboard();
-  auto uniforms = board.get<BufferHandle>("frame_uniforms");
-  auto shadow_map = board.get<TextureHandle>("shadow_map");
-  auto color = board.get<TextureHandle>("scene_color");
-  auto depth = board.get<TextureHandle>("scene_depth");
-  for (const Error* e : {uniforms ? nullptr : &uniforms.error(), shadow_map ? nullptr : &shadow_map.error(),
-                         color ? nullptr : &color.error(), depth ? nullptr : &depth.error()})
-    if (e) return std::unexpected(*e);
-
-  // Persistent assets are imported once each, so the graph shows (and orders) them.
-  std::map<const gpu::Texture*, TextureHandle> textures;
-  std::map<const gpu::Buffer*, BufferHandle> buffers;
-  auto import_texture = [&](const gpu::Texture& t) {
-    if (!textures.contains(&t)) textures[&t] = graph.import_texture(t.label(), &t, gpu::Access::ShaderRead);
-  };
+  // Photos, orientation maps, band tables (and per-layer textures) are persistent assets.
+  frame::ScenePassDesc desc{.name = "shell_fur"};
   for (const ShellFurDraw& d : draws) {
-    import_texture(d.photo->photo);
-    import_texture(d.photo->orientation);
+    desc.textures.push_back({d.photo->photo.label(), &d.photo->photo});
+    desc.textures.push_back({d.photo->orientation.label(), &d.photo->orientation});
     if (d.method == FurMethod::PerLayerTextures)
-      for (const auto& t : d.layers->textures) import_texture(t);
-    if (!buffers.contains(&d.layers->bands))
-      buffers[&d.layers->bands] = graph.import_buffer(d.layers->bands.label(), &d.layers->bands, gpu::Access::StorageRead);
+      for (const auto& t : d.layers->textures) desc.textures.push_back({t.label(), &t});
+    desc.buffers.push_back({d.layers->bands.label(), &d.layers->bands});
   }
-
-  struct Data {
-    BufferHandle uniforms;
-    TextureHandle shadow_map, color, depth;
-    std::map<const gpu::Texture*, TextureHandle> textures;
-    std::map<const gpu::Buffer*, BufferHandle> buffers;
-  };
   auto state = state_;
-  auto& data = graph.add_pass<Data>(
-      "shell_fur",
-      [&](PassBuilder& b, Data& d) {
-        d.uniforms = b.read(*uniforms, BufferUse::Uniform);
-        d.shadow_map = b.read(*shadow_map, TextureUse::Sampled);
-        for (auto& [texture, handle] : textures) d.textures[texture] = b.read(handle, TextureUse::Sampled);
-        for (auto& [buffer, handle] : buffers) d.buffers[buffer] = b.read(handle, BufferUse::StorageRead);
-        d.color = b.write(*color, TextureUse::ColorAttachment);
-        d.depth = b.write(*depth, TextureUse::DepthAttachment);
-      },
-      [state, draws](const PassResources& res, const Data& d, PassContext& ctx) {
-        auto group_for = [&](const ShellFurDraw& draw, const gpu::Texture& photo) -> const gpu::BindGroup* {
-          const gpu::Sampler& sampler = draw.shading.wrap == FurWrap::Repeat ? state->repeat : state->mirror;
-          auto group = ctx.device().create_bind_group(
-              {.label = "shell_fur",
-               .layout = &state->bind_layout,
-               .entries = {gpu::bind(0, res.buffer(d.uniforms)),
-                           gpu::bind(1, res.view(d.textures.at(&photo)), &sampler),
-                           gpu::bind(2, res.view(d.textures.at(&draw.photo->orientation)), &sampler),
-                           gpu::bind(3, res.buffer(d.buffers.at(&draw.layers->bands))),
-                           gpu::bind(4, res.view(d.shadow_map), &state->shadow)}});
-          if (!group) {
-            ctx.encoder().report_error(group.error());
-            return nullptr;
-          }
-          return &ctx.keep(std::move(*group));
-        };
-        auto pass = ctx.encoder().begin_render_pass(
-            {.label = "shell_fur",
-             .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}},
-             .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .load = gpu::LoadOp::Load}});
-        for (const ShellFurDraw& draw : draws) {
-          const std::uint32_t layers = draw.layers->table.layers;
-          const FurPush push = push_constants(draw);
-          const gpu::BindGroup* group = nullptr;  // over the photo: shells and fins
-          if (draw.method == FurMethod::SinglePhoto) {
-            // Tips first: with h_b = 0 the tips win the depth ties (the photo on the skin).
-            group = group_for(draw, draw.photo->photo);
-            if (!group) break;
-            pass.set_pipeline(state->shells);
-            pass.set_bind_group(0, *group);
-            pass.push(push);
-            pass.set_vertex_buffer(0, draw.mesh->vertices);
-            pass.set_index_buffer(draw.mesh->indices);
-            pass.draw_indexed(draw.mesh->index_count, layers + 1);
-          } else {
-            pass.set_pipeline(state->naive);
-            pass.push(push);
-            pass.set_vertex_buffer(0, draw.mesh->vertices);
-            pass.set_index_buffer(draw.mesh->indices);
-            for (std::uint32_t n = 0; n <= layers; ++n) {
-              const gpu::BindGroup* layer_group = group_for(draw, draw.layers->textures[n]);
-              if (!layer_group) break;
-              pass.set_bind_group(0, *layer_group);
-              pass.draw_indexed(draw.mesh->index_count, 1, 0, 0, n);
-            }
-          }
-          if (draw.fins && draw.fins->count > 0 && draw.shading.thickness > 0.0f) {
-            if (!group) group = group_for(draw, draw.photo->photo);
-            if (!group) break;
-            pass.set_pipeline(state->fins);
-            pass.set_bind_group(0, *group);
-            pass.push(push);
-            pass.set_vertex_buffer(0, draw.fins->edges);
-            pass.draw(6, draw.fins->count);
-          }
+  return frame::add_scene_color_pass(graph, std::move(desc), [state, draws](frame::ScenePassDraw& scene) {
+    PassContext& ctx = scene.context;
+    auto group_for = [&](const ShellFurDraw& draw, const gpu::Texture& photo) -> const gpu::BindGroup* {
+      const gpu::Sampler& sampler = draw.shading.wrap == FurWrap::Repeat ? state->repeat : state->mirror;
+      auto group = ctx.device().create_bind_group(
+          {.label = "shell_fur",
+           .layout = &state->bind_layout,
+           .entries = {gpu::bind(0, scene.uniforms), gpu::bind(1, photo.view(), &sampler),
+                       gpu::bind(2, draw.photo->orientation.view(), &sampler), gpu::bind(3, draw.layers->bands),
+                       gpu::bind(4, scene.shadow_map, &state->shadow)}});
+      if (!group) {
+        ctx.encoder().report_error(group.error());
+        return nullptr;
+      }
+      return &ctx.keep(std::move(*group));
+    };
+    gpu::RenderPassEncoder& pass = scene.pass;
+    for (const ShellFurDraw& draw : draws) {
+      const std::uint32_t layers = draw.layers->table.layers;
+      const FurPush push = push_constants(draw);
+      const gpu::BindGroup* group = nullptr;  // over the photo: shells and fins
+      if (draw.method == FurMethod::SinglePhoto) {
+        // Tips first: with h_b = 0 the tips win the depth ties (the photo on the skin).
+        group = group_for(draw, draw.photo->photo);
+        if (!group) break;
+        pass.set_pipeline(state->shells);
+        pass.set_bind_group(0, *group);
+        pass.push(push);
+        pass.set_vertex_buffer(0, draw.mesh->vertices);
+        pass.set_index_buffer(draw.mesh->indices);
+        pass.draw_indexed(draw.mesh->index_count, layers + 1);
+      } else {
+        pass.set_pipeline(state->naive);
+        pass.push(push);
+        pass.set_vertex_buffer(0, draw.mesh->vertices);
+        pass.set_index_buffer(draw.mesh->indices);
+        for (std::uint32_t n = 0; n <= layers; ++n) {
+          const gpu::BindGroup* layer_group = group_for(draw, draw.layers->textures[n]);
+          if (!layer_group) break;
+          pass.set_bind_group(0, *layer_group);
+          pass.draw_indexed(draw.mesh->index_count, 1, 0, 0, n);
         }
-        pass.end();
-      });
-  board.put("scene_color", data.color);
-  board.put("scene_depth", data.depth);
-  return {};
+      }
+      if (draw.fins && draw.fins->count > 0 && draw.shading.thickness > 0.0f) {
+        if (!group) group = group_for(draw, draw.photo->photo);
+        if (!group) break;
+        pass.set_pipeline(state->fins);
+        pass.set_bind_group(0, *group);
+        pass.push(push);
+        pass.set_vertex_buffer(0, draw.fins->edges);
+        pass.draw(6, draw.fins->count);
+      }
+    }
+  });
 }
 
 }  // namespace weft::passes

@@ -10,7 +10,7 @@
 // - the precompute (analyze_fur_photo, make_band_table, ...): pure functions, tested on the CPU;
 // - ShellFurPass: draws fur objects into "scene_color"/"scene_depth" with one instanced draw
 //   per object (gl_InstanceIndex = layer), plus silhouette fins;
-// - create_shell_fur_feature: the FeaturePass the renderer creates for "fur" materials.
+// - shell_fur_feature: the descriptor an application registers for "shell_fur" materials.
 //
 // Decisions (see docs/fur.md for the reasons and measurements):
 // - Luminance is Rec. 709 luminance of the sRGB-decoded photo, stored per texel as an 8-bit
@@ -281,39 +281,8 @@ class ShellFurPass {
   std::shared_ptr<State> state_;
 };
 
-// A minimal frame around ShellFurPass for tests, benchmarks and accuracy studies, with any
-// camera (orthographic too): clears "scene_color" (RGBA16F) and "scene_depth", draws the fur
-// under one directional light and a constant sky, and reads back linear RGBA.
-struct FurFrameSettings {
-  std::uint32_t width = 64, height = 64;
-  mat4 view{1.0f};
-  mat4 projection{1.0f};  // Vulkan clip space (y down, depth 0..1)
-  vec3 camera_position{0.0f};
-  vec3 towards_light{0.0f, 1.0f, 0.0f};
-  vec3 light_radiance{pi};  // pi: a white Lambert surface facing the light reads 1
-  vec3 sky_radiance{0.0f};
-  vec4 clear_color{0.0f, 0.0f, 0.0f, 1.0f};
-};
-
-class FurFrame {
- public:
-  static Result<FurFrame> create(gpu::Device& device, const FurFrameSettings& settings);
-  FurFrame(FurFrame&&) noexcept;
-  FurFrame& operator=(FurFrame&&) noexcept;
-  ~FurFrame();
-  // Builds and compiles the frame's graph for these draws (which must outlive it).
-  Result<void> set_draws(const ShellFurPass& pass, std::span<const ShellFurDraw> draws);
-  Result<FrameStats> execute(bool timestamps = false);
-  // The colour target after execute(): width x height x 4 linear floats.
-  Result<image::Image> read_color();
-
- private:
-  FurFrame() = default;
-  struct State;
-  std::unique_ptr<State> state_;
-};
-
-// The FeaturePass for "fur" materials (registered in the renderer's features.cpp).
-Result<std::unique_ptr<FeaturePass>> create_shell_fur_feature(gpu::Device& device);
+// The feature: material type "shell_fur" (alias "fur"), its knob table, its FeaturePass.
+// An application registers it (weft.builtin_features does for weft's tools).
+const FeatureDescriptor& shell_fur_feature();
 
 }  // namespace weft::passes

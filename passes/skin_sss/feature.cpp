@@ -1,4 +1,4 @@
-// SkinSSSPass (the graph pass: pipeline, bind groups, draws) and the skin FeaturePass (the
+// The skin_sss feature: its descriptor (registration, knob table) and its FeaturePass (the
 // materials' parameters, their LUTs through the content-hash cache, textures, draw lists).
 module;
 #include <algorithm>
@@ -17,7 +17,7 @@ module;
 #include <glm/glm.hpp>
 #include <glm/gtc/packing.hpp>
 #include <nlohmann/json.hpp>
-#include "weft_pass_skin_sss_shaders.h"
+#include <weft/try.h>
 module weft.pass.skin_sss;
 import weft.core;
 import weft.gpu;
@@ -28,213 +28,6 @@ import weft.scene;
 import weft.feature;
 
 namespace weft::passes {
-
-namespace {
-constexpr gpu::Format color_format = gpu::Format::RGBA16Float;  // weft.pass.forward's scene_color
-constexpr gpu::Format depth_format = gpu::Format::Depth32Float;
-
-// Matches `Draw` in skin_common.glsl.
-struct SkinConstants {
-  mat4 model;
-  vec4 albedo_specular;
-  vec4 params;
-  vec4 normal_blur;
-  vec4 transmit;
-};
-static_assert(sizeof(SkinConstants) == 128);
-
-enum : int { flag_albedo_map = 1, flag_normal_map = 2, flag_screen_curvature = 4, flag_reference = 8 };
-}  // namespace
-
-struct SkinGpuMaterial {
-  skin::SkinMaterial params;
-  gpu::BindGroup group;
-  int flags = 0;
-};
-
-struct SkinSSSPass::State {
-  gpu::BindGroupLayout frame_layout;
-  gpu::BindGroupLayout material_layout;
-  gpu::BindGroupLayout reference_layout;
-  gpu::Buffer no_reference;  // bound when a draw uses the LUT
-  gpu::PipelineLayout layout;
-  gpu::RenderPipeline pipeline;
-  gpu::Sampler shadow_compare;
-  gpu::Sampler shadow_depth;
-  gpu::Sampler environment;
-  gpu::Sampler lut;
-  gpu::Sampler texture;
-};
-
-Result<SkinSSSPass> SkinSSSPass::create(gpu::Device& device) {
-  using gpu::BindingType;
-  using gpu::ShaderStage;
-  auto vs = device.create_shader_module({.label = "skin.vert", .stage = ShaderStage::Vertex, .spirv = shaders::skin_vert()});
-  if (!vs) return std::unexpected(vs.error());
-  auto fs = device.create_shader_module({.label = "skin.frag", .stage = ShaderStage::Fragment, .spirv = shaders::skin_frag()});
-  if (!fs) return std::unexpected(fs.error());
-  auto frame_layout = device.create_bind_group_layout(
-      {.label = "skin-frame",
-       .entries = {{0, BindingType::UniformBuffer, ShaderStage::Vertex | ShaderStage::Fragment},
-                   {1, BindingType::TextureSampler, ShaderStage::Fragment},
-                   {2, BindingType::TextureSampler, ShaderStage::Fragment},
-                   {3, BindingType::TextureSampler, ShaderStage::Fragment}}});
-  if (!frame_layout) return std::unexpected(frame_layout.error());
-  auto material_layout = device.create_bind_group_layout(
-      {.label = "skin-material",
-       .entries = {{0, BindingType::TextureSampler, ShaderStage::Fragment},
-                   {1, BindingType::TextureSampler, ShaderStage::Fragment},
-                   {2, BindingType::TextureSampler, ShaderStage::Fragment}}});
-  if (!material_layout) return std::unexpected(material_layout.error());
-  auto reference_layout = device.create_bind_group_layout(
-      {.label = "skin-reference", .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Vertex}}});
-  if (!reference_layout) return std::unexpected(reference_layout.error());
-  const vec4 zero(0.0f);
-  auto no_reference = device.create_buffer_with_data(
-      {.label = "skin-no-reference", .size = sizeof(zero), .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
-      std::as_bytes(std::span(&zero, 1)));
-  if (!no_reference) return std::unexpected(no_reference.error());
-  auto layout = device.create_pipeline_layout({.label = "skin",
-                                               .bind_group_layouts = {&*frame_layout, &*material_layout, &*reference_layout},
-                                               .push_constant_size = sizeof(SkinConstants)});
-  if (!layout) return std::unexpected(layout.error());
-  auto pipeline = frame::create_lit_mesh_pipeline(device, "skin", *layout, *vs, *fs, color_format, depth_format);
-  if (!pipeline) return std::unexpected(pipeline.error());
-  auto shadow_compare = frame::create_shadow_compare_sampler(device, "skin-shadow-compare");
-  if (!shadow_compare) return std::unexpected(shadow_compare.error());
-  auto shadow_depth = device.create_sampler({.label = "skin-shadow-depth", .mag_filter = gpu::FilterMode::Nearest,
-                                             .min_filter = gpu::FilterMode::Nearest,
-                                             .mipmap_filter = gpu::FilterMode::Nearest, .max_lod = 0.0f});
-  if (!shadow_depth) return std::unexpected(shadow_depth.error());
-  auto environment = device.create_sampler({.label = "skin-environment", .address_mode = gpu::AddressMode::Repeat});
-  if (!environment) return std::unexpected(environment.error());
-  auto lut = device.create_sampler({.label = "skin-lut", .mipmap_filter = gpu::FilterMode::Nearest, .max_lod = 0.0f});
-  if (!lut) return std::unexpected(lut.error());
-  auto texture = device.create_sampler({.label = "skin-texture", .address_mode = gpu::AddressMode::Repeat});
-  if (!texture) return std::unexpected(texture.error());
-  SkinSSSPass pass;
-  pass.state_ = std::make_shared<State>(State{std::move(*frame_layout), std::move(*material_layout),
-                                              std::move(*reference_layout), std::move(*no_reference), std::move(*layout),
-                                              std::move(*pipeline), std::move(*shadow_compare), std::move(*shadow_depth),
-                                              std::move(*environment), std::move(*lut), std::move(*texture)});
-  return pass;
-}
-
-Result<std::shared_ptr<SkinGpuMaterial>> SkinSSSPass::create_material(gpu::Device& device, const skin::SkinMaterial& material,
-                                                                      const gpu::Texture& lut, const gpu::Texture& albedo,
-                                                                      const gpu::Texture& normal) const {
-  auto group = device.create_bind_group({.label = "skin-material",
-                                         .layout = &state_->material_layout,
-                                         .entries = {gpu::bind(0, lut.view(), &state_->lut),
-                                                     gpu::bind(1, albedo.view(), &state_->texture),
-                                                     gpu::bind(2, normal.view(), &state_->texture)}});
-  if (!group) return std::unexpected(group.error());
-  auto out = std::make_shared<SkinGpuMaterial>(SkinGpuMaterial{material, std::move(*group), 0});
-  if (!material.albedo_texture.empty()) out->flags |= flag_albedo_map;
-  if (!material.normal_texture.empty()) out->flags |= flag_normal_map;
-  if (material.curvature == skin::CurvatureSource::Screen) out->flags |= flag_screen_curvature;
-  return out;
-}
-
-Result<void> SkinSSSPass::add(RenderGraph& graph, std::span<const SkinDraw> draws,
-                              std::span<const std::shared_ptr<SkinGpuMaterial>> materials,
-                              std::span<const gpu::Texture* const> luts) const {
-  struct Data {
-    BufferHandle uniforms;
-    TextureHandle shadow_map, environment, color, depth;
-    std::vector<BufferHandle> references;  // per draw; invalid: the LUT
-  };
-  auto& board = graph.blackboard();
-  auto uniforms = board.get<BufferHandle>("frame_uniforms");
-  auto shadow_map = board.get<TextureHandle>("shadow_map");
-  auto environment = board.get<TextureHandle>("environment");
-  auto color = board.get<TextureHandle>("scene_color");
-  auto depth = board.get<TextureHandle>("scene_depth");
-  for (const Error* e : {uniforms ? nullptr : &uniforms.error(), shadow_map ? nullptr : &shadow_map.error(),
-                         environment ? nullptr : &environment.error(), color ? nullptr : &color.error(),
-                         depth ? nullptr : &depth.error()})
-    if (e) return std::unexpected(*e);
-  for (const auto& d : draws)
-    if (!d.mesh || d.material >= materials.size() || !materials[d.material])
-      return fail(ErrorKind::InvalidArgument, "skin pass: a draw names material {} of {} (or has no mesh)", d.material,
-                  materials.size());
-  std::vector<TextureHandle> lut_handles;
-  for (std::size_t i = 0; i < luts.size(); ++i)
-    lut_handles.push_back(graph.import_texture(luts.size() == 1 ? std::string("skin_lut") : weft::format("skin_lut_{}", i),
-                                               luts[i], gpu::Access::ShaderRead));
-  std::vector<BufferHandle> reference_handles;
-  for (std::size_t i = 0; i < draws.size(); ++i)
-    reference_handles.push_back(draws[i].reference ? graph.import_buffer(weft::format("skin_reference_{}", i),
-                                                                          draws[i].reference, gpu::Access::StorageRead)
-                                                   : BufferHandle{});
-  auto state = state_;
-  auto& data = graph.add_pass<Data>(
-      "skin_sss",
-      [&](PassBuilder& b, Data& d) {
-        d.uniforms = b.read(*uniforms, BufferUse::Uniform);
-        d.shadow_map = b.read(*shadow_map, TextureUse::Sampled);
-        d.environment = b.read(*environment, TextureUse::Sampled);
-        for (auto h : lut_handles) b.read(h, TextureUse::Sampled);
-        for (auto h : reference_handles) d.references.push_back(h ? b.read(h, BufferUse::StorageRead) : h);
-        d.color = b.write(*color, TextureUse::ColorAttachment);
-        d.depth = b.write(*depth, TextureUse::DepthAttachment);
-      },
-      [state, draws, materials](const PassResources& res, const Data& d, PassContext& ctx) {
-        auto group = ctx.device().create_bind_group(
-            {.label = "skin-frame",
-             .layout = &state->frame_layout,
-             .entries = {gpu::bind(0, res.buffer(d.uniforms)), gpu::bind(1, res.view(d.shadow_map), &state->shadow_compare),
-                         gpu::bind(2, res.view(d.shadow_map), &state->shadow_depth),
-                         gpu::bind(3, res.view(d.environment), &state->environment)}});
-        if (!group) return ctx.encoder().report_error(group.error());
-        const auto& frame_group = ctx.keep(std::move(*group));
-        // The per-draw reference buffers (the reference mode), or a dummy for LUT draws.
-        auto none = ctx.device().create_bind_group(
-            {.label = "skin-no-reference", .layout = &state->reference_layout, .entries = {gpu::bind(0, state->no_reference)}});
-        if (!none) return ctx.encoder().report_error(none.error());
-        std::vector<const gpu::BindGroup*> reference_groups(draws.size(), &ctx.keep(std::move(*none)));
-        for (std::size_t i = 0; i < draws.size(); ++i) {
-          if (!d.references[i]) continue;
-          auto reference = ctx.device().create_bind_group({.label = "skin-reference",
-                                                           .layout = &state->reference_layout,
-                                                           .entries = {gpu::bind(0, res.buffer(d.references[i]))}});
-          if (!reference) return ctx.encoder().report_error(reference.error());
-          reference_groups[i] = &ctx.keep(std::move(*reference));
-        }
-        auto pass = ctx.encoder().begin_render_pass(
-            {.label = "skin_sss",
-             .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}},
-             .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .load = gpu::LoadOp::Load}});
-        pass.set_pipeline(state->pipeline);
-        pass.set_bind_group(0, frame_group);
-        for (std::size_t i = 0; i < draws.size(); ++i) {
-          const SkinDraw& draw = draws[i];
-          const SkinGpuMaterial& mat = *materials[draw.material];
-          const int flags = mat.flags | (d.references[i] ? flag_reference : 0);
-          pass.set_bind_group(2, *reference_groups[i]);
-          const skin::SkinMaterial& m = mat.params;
-          // Uniform scale of the object (curvature is per mesh unit; mm_per_unit is per world unit).
-          const float scale = std::cbrt(std::abs(glm::determinant(mat3(draw.model))));
-          const float to_lut = m.curvature_scale / (m.mm_per_unit * float(m.lut.max_curvature));  // world 1/r -> v
-          SkinConstants c{};
-          c.model = draw.model;
-          c.albedo_specular = vec4(m.albedo, m.specular);
-          c.params = vec4(m.roughness, scale > 0.0f && std::isfinite(scale) ? 1.0f / scale : 0.0f, to_lut, m.mm_per_unit);
-          c.normal_blur = vec4(m.normal_blur, m.normal_strength);
-          c.transmit = vec4(m.transmittance ? m.transmittance_scale : 0.0f, m.transmittance_shrink_mm / m.mm_per_unit,
-                            float(flags + 16 * int(m.debug_view)), m.shadow_scatter_mm / m.mm_per_unit);
-          pass.set_bind_group(1, mat.group);
-          pass.push(c);
-          pass.set_vertex_buffer(0, draw.mesh->vertices);
-          pass.set_index_buffer(draw.mesh->indices);
-          pass.draw_indexed(draw.mesh->index_count);
-        }
-        pass.end();
-      });
-  board.put("scene_color", data.color);
-  board.put("scene_depth", data.depth);
-  return {};
-}
 
 // ---- the feature ------------------------------------------------------------------------
 
@@ -266,7 +59,7 @@ class SkinFeature final : public FeaturePass {
   SkinFeature(gpu::Device& device, SkinSSSPass pass, gpu::Texture white, gpu::Texture flat)
       : device_(&device), pass_(std::move(pass)), white_(std::move(white)), flat_normal_(std::move(flat)) {}
 
-  [[nodiscard]] std::string_view name() const override { return "skin"; }
+  [[nodiscard]] std::string_view name() const override { return "skin_sss"; }
 
   Result<void> prepare(const FeatureFrame& frame) override {
     warnings_.clear();
@@ -418,16 +211,63 @@ class SkinFeature final : public FeaturePass {
 
 }  // namespace
 
-Result<std::unique_ptr<FeaturePass>> create_skin_feature(gpu::Device& device) {
-  auto pass = SkinSSSPass::create(device);
-  if (!pass) return std::unexpected(pass.error());
+namespace {
+
+Result<std::unique_ptr<FeaturePass>> create_feature(gpu::Device& device) {
+  WEFT_TRY(auto pass, SkinSSSPass::create(device));
   const std::uint8_t white_texel[4] = {255, 255, 255, 255};
   const std::uint8_t flat_texel[4] = {128, 128, 255, 255};
-  auto white = upload_rgba8(device, "skin-white", 1, 1, gpu::Format::RGBA8Srgb, white_texel);
-  if (!white) return std::unexpected(white.error());
-  auto flat = upload_rgba8(device, "skin-flat-normal", 1, 1, gpu::Format::RGBA8Unorm, flat_texel);
-  if (!flat) return std::unexpected(flat.error());
-  return std::make_unique<SkinFeature>(device, std::move(*pass), std::move(*white), std::move(*flat));
+  WEFT_TRY(auto white, upload_rgba8(device, "skin-white", 1, 1, gpu::Format::RGBA8Srgb, white_texel));
+  WEFT_TRY(auto flat, upload_rgba8(device, "skin-flat-normal", 1, 1, gpu::Format::RGBA8Unorm, flat_texel));
+  return std::make_unique<SkinFeature>(device, std::move(pass), std::move(white), std::move(flat));
+}
+
+Result<void> check_material(const scene::Material& material) {
+  WEFT_TRY_VOID(skin::parse_skin_material(material));
+  return {};
+}
+
+}  // namespace
+
+// Quality picks lut.size and lut.samples (64/128, 256/256, 512/512, 1024/1024) and, at
+// reference, the brute-force mode (docs/skin.md, docs/tradeoffs.md).
+const FeatureDescriptor& skin_sss_feature() {
+  static const FeatureDescriptor feature = [] {
+    FeatureDescriptor d;
+    d.name = "skin_sss";
+    d.aliases = {"skin"};
+    d.summary = "pre-integrated subsurface scattering for skin (curvature-adaptive LUT)";
+    d.doc = "docs/skin.md";
+    d.check_material = &check_material;
+    d.create = &create_feature;
+    d.passes = {"skin_sss"};
+    d.knobs = {
+        integer_knob("lut.size", 2, 4096, {8, 16, 32, 64, 128, 256, 512, 1024}, "LUT texels per side (N.L by 1/r)"),
+        integer_knob("lut.samples", 2, 65536, {4, 8, 16, 32, 64, 128, 256, 1024}, "ring samples per Gaussian when baking"),
+        choice_knob("lut.range", {"penner", "adaptive", "full"}, "integration range around the ring"),
+        choice_knob("lut.quadrature", {"per-gaussian", "uniform"}, "one grid per Gaussian, or Penner's single grid"),
+        choice_knob("curvature", {"vertex", "screen"}, "1/r from the mesh per vertex, or from screen derivatives"),
+    };
+    // The stability sweep stops at the reference preset's 1024: 4096 texels and 65,536
+    // samples are a bake of hours.
+    d.knobs[0].extreme_max = 1024;
+    d.knobs[1].extreme_max = 1024;
+    d.preset_values = [](Quality q) -> nlohmann::json {
+      const auto p = skin::skin_quality_preset(q);
+      return {{"lut.size", p.lut_size}, {"lut.samples", p.lut_samples}, {"reference", p.reference}};
+    };
+    // The brute-force gather of d'Eon's profile over the mesh, per vertex, for the key light
+    // (skin::mesh_reference): the scattering the LUT approximates, without the ring model.
+    d.reference = {{"reference", true}};
+    d.reference_why = "\"reference\": true: brute-force scattering gathered over the mesh per vertex";
+    // Every LUT costs the same per frame (one texture, the same fetches): the knobs trade
+    // bake time, so the cost is the cold first frame with the LUT's disk cache off.
+    d.cost = CostAxis::ColdFrame;
+    d.environment = {{"WEFT_SKIN_LUT_CACHE", ""}};
+    d.clear_caches = &skin::clear_lut_memory_cache;
+    return d;
+  }();
+  return feature;
 }
 
 }  // namespace weft::passes

@@ -34,11 +34,13 @@ std::string_view to_string(DebugView d) {
 namespace {
 
 void read_lut(scene::JsonReader& r, LutParams& lut) {
-  const scene::Range texels{.min = 2, .max = 4096};
-  const auto size = static_cast<std::uint32_t>(r.integer("size", lut.width, texels));
+  const auto& knobs = passes::skin_sss_feature().knobs;
+  const Knob& size_knob = *find_knob(knobs, "lut.size");
+  const scene::Range texels = knob_range(size_knob);
+  const auto size = static_cast<std::uint32_t>(read_integer_knob(r, size_knob, lut.width));
   lut.width = static_cast<std::uint32_t>(r.integer("width", size, texels));
   lut.height = static_cast<std::uint32_t>(r.integer("height", size, texels));
-  const std::string range = r.string("range", std::string(to_string(lut.range)), {"penner", "adaptive", "full"});
+  const std::string range = read_choice_knob(r, *find_knob(knobs, "lut.range"), std::string(to_string(lut.range)));
   if (auto parsed = integration_range_from_string(range)) lut.range = *parsed;
   const std::string convention = r.string("convention", "default", {"default", "thesis", "penner"});
   if (convention == "thesis") lut.convention = thesis_convention;
@@ -48,8 +50,9 @@ void read_lut(scene::JsonReader& r, LutParams& lut) {
   lut.convention.normalization = normalization == "planar" ? Normalization::Planar : Normalization::Ring;
   lut.convention.variance_scale = r.number("variance_scale", lut.convention.variance_scale, {.min = 0.01, .max = 100});
   lut.max_curvature = r.number("max_curvature", lut.max_curvature, {.min = 0, .max = 10, .min_exclusive = true});
-  lut.samples = static_cast<std::uint32_t>(r.integer("samples", lut.samples, {.min = 2, .max = 65536}));
-  const std::string quadrature = r.string("quadrature", std::string(to_string(lut.quadrature)), {"per-gaussian", "uniform"});
+  lut.samples = static_cast<std::uint32_t>(read_integer_knob(r, *find_knob(knobs, "lut.samples"), lut.samples));
+  const std::string quadrature =
+      read_choice_knob(r, *find_knob(knobs, "lut.quadrature"), std::string(to_string(lut.quadrature)));
   lut.quadrature = quadrature == "uniform" ? Quadrature::Uniform : Quadrature::PerGaussian;
   r.finish();
 }
@@ -89,8 +92,9 @@ Result<SkinMaterial> parse_skin_material(const scene::Material& material, Qualit
       m.specular = float(r.number("specular", m.specular, {.min = 0, .max = 10}));
       m.mm_per_unit = float(r.number("mm_per_unit", m.mm_per_unit, {.min = 0, .max = 1e9, .min_exclusive = true}));
       m.curvature_scale = float(r.number("curvature_scale", m.curvature_scale, {.min = 0, .max = 1000}));
-      m.curvature = r.string("curvature", "vertex", {"vertex", "screen"}) == "screen" ? CurvatureSource::Screen
-                                                                                    : CurvatureSource::Vertex;
+      m.curvature = read_choice_knob(r, *find_knob(passes::skin_sss_feature().knobs, "curvature"), "vertex") == "screen"
+                        ? CurvatureSource::Screen
+                        : CurvatureSource::Vertex;
       m.transmittance = r.boolean("transmittance", m.transmittance);
       m.transmittance_scale = float(r.number("transmittance_scale", m.transmittance_scale, {.min = 0, .max = 1000}));
       m.transmittance_shrink_mm =

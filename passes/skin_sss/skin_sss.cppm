@@ -269,7 +269,11 @@ struct SkinDraw {
 
 // A skin material on the GPU: its parameters and its bind group (LUT, albedo and normal
 // textures), built by SkinSSSPass::create_material.
-struct SkinGpuMaterial;
+struct SkinGpuMaterial {
+  skin::SkinMaterial params;
+  gpu::BindGroup group;
+  int flags = 0;
+};
 
 // The graph pass: draws skin objects into "scene_color"/"scene_depth" (loading what the
 // forward pass drew), reading "frame_uniforms", "shadow_map" and "environment".
@@ -291,9 +295,9 @@ class SkinSSSPass {
   std::shared_ptr<State> state_;
 };
 
-// The FeaturePass for scene::MaterialType::Skin (registered in the renderer's features.cpp).
-// At Quality::Reference it shades with skin::mesh_reference per vertex instead of the LUT
-// (computed on the CPU for the frame's key light, cached per mesh, light and scale).
-Result<std::unique_ptr<FeaturePass>> create_skin_feature(gpu::Device& device);
+// The feature: material type "skin_sss" (alias "skin"), its knob table, its FeaturePass. At
+// Quality::Reference the FeaturePass shades with skin::mesh_reference per vertex instead of
+// the LUT (computed on the CPU for the frame's key light, cached per mesh, light and scale).
+const FeatureDescriptor& skin_sss_feature();
 
 }  // namespace weft::passes

@@ -3,8 +3,9 @@ module;
 #include <expected>
 #include <memory>
 #include <vector>
+#include <weft/try.h>
 #include "weft_pass_tonemap_shaders.h"
-module weft.pass.tonemap;
+module weft.base_pass.tonemap;
 import weft.core;
 import weft.gpu;
 import weft.graph;
@@ -51,14 +52,15 @@ Result<TextureHandle> TonemapPass::add(RenderGraph& graph, TextureHandle output,
   struct Data {
     TextureHandle color, output;
   };
-  auto color = graph.blackboard().get<TextureHandle>("scene_color");
-  if (!color) return std::unexpected(color.error());
+  WEFT_TRY(const frame::SceneTargets shared,
+           frame::scene_targets(graph.blackboard(),
+                                {.uniforms = false, .environment = false, .shadow_map = false, .depth = false}));
   auto state = state_;
   const Push push{settings.exposure, std::uint32_t(settings.tone_operator)};
   auto& data = graph.add_pass<Data>(
       "tonemap",
       [&](PassBuilder& b, Data& d) {
-        d.color = b.read(*color, TextureUse::Sampled);
+        d.color = b.read(shared.color, TextureUse::Sampled);
         d.output = b.write(output, TextureUse::ColorAttachment);
       },
       [state, push](const PassResources& res, const Data& d, PassContext& ctx) {

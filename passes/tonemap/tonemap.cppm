@@ -1,9 +1,9 @@
-// weft.pass.tonemap — "scene_color" (linear HDR) to the frame's output texture (RGBA8,
+// weft.base_pass.tonemap — "scene_color" (linear HDR) to the frame's output texture (RGBA8,
 // sRGB-encoded): exposure, then ACES or a plain clamp (the analytic tests use the clamp).
 module;
 #include <expected>
 #include <memory>
-export module weft.pass.tonemap;
+export module weft.base_pass.tonemap;
 import weft.core;
 import weft.gpu;
 import weft.graph;

@@ -109,7 +109,7 @@ TEST_CASE("weft tradeoff: bad input is named; a small fur sweep writes its CSV, 
   for (const auto& c : {Case{"tradeoff --feature fur", "scene file is required"},
                         Case{"tradeoff " + fur, "--feature is required"},
                         Case{"tradeoff " + fur + " --feature hair", "'hair'"},
-                        Case{"tradeoff " + s + " --feature fur", "no \"fur\" material"},
+                        Case{"tradeoff " + s + " --feature fur", "no \"shell_fur\" material"},  // "fur" is its alias
                         Case{"tradeoff " + fur + " --feature fur --values layers=0", "layers"},
                         Case{"tradeoff " + fur + " --feature fur --values layers", "KNOB=V1"},
                         Case{"tradeoff " + fur + " --feature fur --values hairs=2", "'hairs'"},

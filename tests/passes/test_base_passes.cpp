@@ -13,10 +13,10 @@ import weft.core;
 import weft.gpu;
 import weft.graph;
 import weft.frame;
-import weft.pass.shadow;
-import weft.pass.forward;
-import weft.pass.background;
-import weft.pass.tonemap;
+import weft.base_pass.shadow;
+import weft.base_pass.forward;
+import weft.base_pass.background;
+import weft.base_pass.tonemap;
 import weft.test.gpu;
 
 using namespace weft;
@@ -114,8 +114,9 @@ Rendered render(const Setup& s, std::span<const frame::DrawItem> items) {
   REQUIRE(output);
 
   RenderGraph graph("base-passes");
-  graph.blackboard().put("frame_uniforms", graph.import_buffer("frame_uniforms", &*uniforms, gpu::Access::UniformRead));
-  graph.blackboard().put("environment", graph.import_texture("environment", &*env, gpu::Access::ShaderRead));
+  frame::put_scene_targets(graph.blackboard(),
+                           {.uniforms = graph.import_buffer("frame_uniforms", &*uniforms, gpu::Access::UniformRead),
+                            .environment = graph.import_texture("environment", &*env, gpu::Access::ShaderRead)});
   shadow->add(graph, items, u.light_view_projection);
   REQUIRE(forward->add(graph, items));
   REQUIRE(background->add(graph));

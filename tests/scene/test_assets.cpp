@@ -145,10 +145,10 @@ TEST_CASE("the shipped default scene parses and loads (standard materials only)"
   auto scene = sc::load_scene(*root / "examples" / "scenes" / "default.json");
   REQUIRE_MESSAGE(scene.has_value(), scene.error().what());
   CHECK(scene->objects.size() == 4);
-  CHECK(scene->uses(sc::MaterialType::Standard));
-  CHECK_FALSE(scene->uses(sc::MaterialType::Fur));
-  CHECK_FALSE(scene->uses(sc::MaterialType::Skin));
-  CHECK_FALSE(scene->uses(sc::MaterialType::NeuralBtf));
+  CHECK(scene->uses(sc::standard_material));
+  CHECK_FALSE(scene->uses("shell_fur"));
+  CHECK_FALSE(scene->uses("skin_sss"));
+  CHECK_FALSE(scene->uses("neural_btf"));
   REQUIRE(scene->environment.map.has_value());
   CHECK(scene->environment.map->width == 1024);
   CHECK(sc::validate(scene->camera).has_value());

@@ -63,7 +63,7 @@ void check_quad_scene(const sc::GltfScene& s) {
   REQUIRE(s.materials.size() == 1);
   const sc::Material& red = s.materials[child->material];
   CHECK(red.name == "red");
-  CHECK(red.type == sc::MaterialType::Standard);
+  CHECK(red.type == sc::standard_material);
   CHECK(near3(red.standard.base_color, {1, 0, 0}));
   CHECK(red.standard.metallic == doctest::Approx(0.25f));
   CHECK(red.standard.roughness == doctest::Approx(0.75f));
@@ -124,8 +124,8 @@ TEST_CASE("glTF: load_mesh merges every instance in world space; load_scene buil
   CHECK(scene->objects.size() == 2);
   CHECK(near3(scene->camera.position, {0, 0, 5}));  // the file's camera
   CHECK(scene->lights.size() == 1);                   // its own light: no default added
-  CHECK(scene->uses(sc::MaterialType::Standard));
-  CHECK_FALSE(scene->uses(sc::MaterialType::Fur));
+  CHECK(scene->uses(sc::standard_material));
+  CHECK_FALSE(scene->uses("shell_fur"));
 }
 
 TEST_CASE("glTF: a missing texture file is a warning naming the material and the path") {

@@ -403,7 +403,7 @@ TEST_CASE("fur material: fields, defaults, layers by quality, all errors at thei
   REQUIRE(image::save_png(photo, synthesize_fur_photo({.width = 16, .height = 16})));
   scene::Material m;
   m.name = "fur";
-  m.type = scene::MaterialType::Fur;
+  m.type = passes::shell_fur_feature().name;
   m.json_path = "$.materials.fur";
   m.base_dir = dir;
   m.params = {{"photo", photo.filename().string()}};

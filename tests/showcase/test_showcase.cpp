@@ -105,8 +105,8 @@ TEST_CASE("the showcase composes the four features in one graph: each pass once,
   // Switching the cloth to a standard material removes the neural BTF pass (and its model).
   scene::Scene without = s;
   for (auto& m : without.materials)
-    if (m.type == scene::MaterialType::NeuralBtf) {
-      m.type = scene::MaterialType::Standard;
+    if (m.type == "neural_btf") {
+      m.type = scene::standard_material;
       m.standard = {};
     }
   auto fewer = shared_renderer().describe(without, kSmall);
@@ -130,15 +130,16 @@ TEST_CASE("stability sweep: every knob of every feature at its minimum and maxim
   REQUIRE(normal.non_finite == 0);
   // The sky's brightest texels bound the frame; a feature that blew up would exceed them.
   const float bound = std::max(4.0f * normal.largest, 16.0f);
-  for (const auto& study : to::studies()) {
+  for (const auto* each : to::studies()) {
+    const auto& study = *each;
     // The SSDF's other settings bake at 8 x 8 directions, so only the resolution's own
     // extremes pay for fine bakes.
     nlohmann::json cheap = nlohmann::json::object();
-    if (study.feature == "ssdf") cheap = {{"bake.resolution", 8}};
+    if (study.feature == "ssdf_lighting") cheap = {{"bake.resolution", 8}};
     for (const auto& setting : to::extreme_settings(study, cheap)) {
       CAPTURE(study.feature);
       CAPTURE(setting.label);
-      if (study.feature == "ssdf" && setting.is_reference) continue;  // 64 x 64 at full rank: the resolution maximum covers it
+      if (study.feature == "ssdf_lighting" && setting.is_reference) continue;  // 64 x 64 at full rank: the resolution maximum covers it
       scene::Scene s = base;
       REQUIRE(to::apply_setting(s, study, setting));
       renderer::RenderOptions options = kSmall;

@@ -17,7 +17,7 @@ Result<skin::SkinMaterial> parse(const std::string& material, Quality q = Qualit
   auto desc = scene::parse_scene(json, std::filesystem::temp_directory_path());
   REQUIRE_MESSAGE(desc, (desc ? "" : desc.error().message));
   const auto& m = desc->materials.at(0);
-  REQUIRE(m.type == scene::MaterialType::Skin);
+  REQUIRE(m.type == "skin_sss");
   return skin::parse_skin_material(m, q);
 }
 }  // namespace

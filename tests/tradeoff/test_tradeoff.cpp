@@ -40,7 +40,7 @@ const to::Study& study(std::string_view name) {
 // A scene with one material of each feature's type (and a standard one that must not change).
 scene::Scene scene_with_every_material() {
   scene::Scene s;
-  auto add = [&](std::string name, scene::MaterialType type, json params) {
+  auto add = [&](std::string name, std::string type, json params) {
     scene::Material m;
     m.name = std::move(name);
     m.type = type;
@@ -48,11 +48,11 @@ scene::Scene scene_with_every_material() {
     m.json_path = "$.materials." + m.name;
     s.materials.push_back(std::move(m));
   };
-  add("plain", scene::MaterialType::Standard, json::object());
-  add("fur", scene::MaterialType::Fur, {{"photo", "fur.png"}, {"layers", 15}});
-  add("skin", scene::MaterialType::Skin, {{"lut", {{"size", 128}, {"range", "penner"}}}});
-  add("ssdf", scene::MaterialType::Ssdf, {{"albedo", {0.5, 0.5, 0.5}}, {"lobes", 4}});
-  add("btf", scene::MaterialType::NeuralBtf, {{"model", "cloth.wbtf"}, {"filter", "nearest"}});
+  add("plain", "standard", json::object());
+  add("fur", "shell_fur", {{"photo", "fur.png"}, {"layers", 15}});
+  add("skin", "skin_sss", {{"lut", {{"size", 128}, {"range", "penner"}}}});
+  add("ssdf", "ssdf_lighting", {{"albedo", {0.5, 0.5, 0.5}}, {"lobes", 4}});
+  add("btf", "neural_btf", {{"model", "cloth.wbtf"}, {"filter", "nearest"}});
   // The parsers check that files exist (not what is in them).
   const auto dir = std::filesystem::temp_directory_path() / "weft_test_tradeoff";
   std::filesystem::create_directories(dir);
@@ -61,26 +61,12 @@ scene::Scene scene_with_every_material() {
   return s;
 }
 
-// Does the feature's own parser accept the material as the setting left it?
+// Does the feature's own check (its descriptor's) accept the material as the setting left it?
 Result<void> parses(const scene::Material& m) {
-  switch (m.type) {
-    case scene::MaterialType::Skin: {
-      auto r = skin::parse_skin_material(m);
-      if (!r) return std::unexpected(r.error());
-      return {};
-    }
-    case scene::MaterialType::Ssdf: {
-      auto r = ssdf::parse_ssdf_material(m);
-      if (!r) return std::unexpected(r.error());
-      return {};
-    }
-    case scene::MaterialType::NeuralBtf: {
-      auto r = btf::parse_neural_btf_material(m);
-      if (!r) return std::unexpected(r.error());
-      return {};
-    }
-    default: return {};
-  }
+  if (m.type == scene::standard_material) return {};
+  auto feature = feature_registry().get(m.type);
+  if (!feature) return std::unexpected(feature.error());
+  return (*feature)->check_material(m);
 }
 
 image::Image8 flat(std::uint32_t w, std::uint32_t h, std::uint8_t v) {
@@ -95,9 +81,10 @@ double srgb_to_linear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c 
 
 TEST_CASE("the catalogue has all four features; knobs and references are valid values of their knobs") {
   std::set<std::string> names;
-  for (const auto& s : to::studies()) names.insert(s.feature);
-  CHECK(names == std::set<std::string>{"fur", "skin", "ssdf", "btf"});
-  for (const auto& s : to::studies()) {
+  for (const auto* s : to::studies()) names.insert(s->feature);
+  CHECK(names == std::set<std::string>{"shell_fur", "skin_sss", "ssdf_lighting", "neural_btf"});
+  for (const auto* study : to::studies()) {
+    const auto& s = *study;
     CAPTURE(s.feature);
     CHECK_FALSE(s.knobs.empty());
     CHECK_FALSE(s.passes.empty());
@@ -124,7 +111,11 @@ TEST_CASE("the catalogue has all four features; knobs and references are valid v
   auto unknown = to::find_study("hair");
   REQUIRE_FALSE(unknown);
   CHECK(unknown.error().message.find("'hair'") != std::string::npos);
-  CHECK(unknown.error().message.find("fur, skin, ssdf, btf") != std::string::npos);
+  CHECK(unknown.error().message.find("shell_fur (fur), skin_sss (skin), neural_btf (btf), ssdf_lighting (ssdf)") !=
+        std::string::npos);
+  // The old --feature names are aliases of the same study.
+  CHECK(&study("fur") == &study("shell_fur"));
+  CHECK(&study("btf") == &study("neural_btf"));
 }
 
 TEST_CASE("knob values from the command line: types, ranges, choices; errors name the knob and the value") {
@@ -160,7 +151,8 @@ TEST_CASE("knob values from the command line: types, ranges, choices; errors nam
 }
 
 TEST_CASE("the sweep plan: the reference first, every preset, each knob's sweep, grids crossed, no duplicates") {
-  for (const auto& s : to::studies()) {
+  for (const auto* study : to::studies()) {
+    const auto& s = *study;
     CAPTURE(s.feature);
     const auto plan = to::plan_sweep(s);
     REQUIRE_FALSE(plan.empty());
@@ -200,7 +192,8 @@ TEST_CASE("the sweep plan: the reference first, every preset, each knob's sweep,
 }
 
 TEST_CASE("extremes: each knob's minimum and maximum (every choice, both booleans) on top of a base") {
-  for (const auto& s : to::studies()) {
+  for (const auto* study : to::studies()) {
+    const auto& s = *study;
     CAPTURE(s.feature);
     const auto ext = to::extreme_settings(s, {{"base_only", 1}});
     CHECK(ext.front().is_reference);
@@ -209,7 +202,7 @@ TEST_CASE("extremes: each knob's minimum and maximum (every choice, both boolean
     CHECK(ext.size() == expected);
     for (const auto& k : s.knobs) {
       if (k.kind != to::KnobKind::Integer) continue;
-      for (double bound : {k.min, k.max})
+      for (double bound : {k.extreme_min.value_or(k.min), k.extreme_max.value_or(k.max)})
         CHECK(std::any_of(ext.begin(), ext.end(), [&](const to::Setting& x) {
           return x.values.contains(k.name) && x.values[k.name] == std::int64_t(bound) && x.values.value("base_only", 0) == 1;
         }));
@@ -218,14 +211,15 @@ TEST_CASE("extremes: each knob's minimum and maximum (every choice, both boolean
 }
 
 TEST_CASE("a setting is written into every material of the feature's type, which its parser then accepts") {
-  for (const auto& s : to::studies()) {
+  for (const auto* study : to::studies()) {
+    const auto& s = *study;
     CAPTURE(s.feature);
     for (const auto& setting : to::extreme_settings(s)) {
       CAPTURE(setting.label);
       scene::Scene scene = scene_with_every_material();
       REQUIRE(to::apply_setting(scene, s, setting));
       for (const auto& m : scene.materials) {
-        if (m.type == scene::MaterialType::Standard) {
+        if (m.type == scene::standard_material) {
           CHECK(m.params == json::object());
           continue;
         }
@@ -254,7 +248,53 @@ TEST_CASE("a setting is written into every material of the feature's type, which
   scene::Scene none;
   auto missing = to::apply_setting(none, study("ssdf"), {.label = "x"});
   REQUIRE_FALSE(missing);
-  CHECK(missing.error().message.find("'ssdf'") != std::string::npos);
+  CHECK(missing.error().message.find("'ssdf_lighting'") != std::string::npos);
+}
+
+TEST_CASE("the feature registry: names and aliases are unique, a descriptor needs its factory and check") {
+  FeatureRegistry registry;
+  FeatureDescriptor d = passes::shell_fur_feature();
+  REQUIRE(registry.add(d));
+  CHECK(registry.add(d));  // the same name and aliases again: nothing changes
+  CHECK(registry.all().size() == 1);
+  CHECK(registry.find("fur") == registry.find("shell_fur"));
+  CHECK(registry.find("hair") == nullptr);
+  auto unknown = registry.get("hair");
+  REQUIRE_FALSE(unknown);
+  CHECK(unknown.error().message == "no feature 'hair' is registered; registered: shell_fur (fur)");
+
+  FeatureDescriptor clash = passes::skin_sss_feature();
+  clash.aliases = {"fur"};
+  auto taken = registry.add(clash);
+  REQUIRE_FALSE(taken);
+  CHECK(taken.error().message == "feature 'skin_sss': the name 'fur' is taken by 'shell_fur'");
+
+  FeatureDescriptor no_factory = passes::skin_sss_feature();
+  no_factory.create = nullptr;
+  auto incomplete = registry.add(no_factory);
+  REQUIRE_FALSE(incomplete);
+  CHECK(incomplete.error().message.find("needs `create`") != std::string::npos);
+
+  FeatureDescriptor empty_knob = passes::skin_sss_feature();
+  empty_knob.knobs.push_back(choice_knob("mode", {}, "nothing to choose"));
+  auto bad_knob = registry.add(empty_knob);
+  REQUIRE_FALSE(bad_knob);
+  CHECK(bad_knob.error().message.find("knob 'mode'") != std::string::npos);
+}
+
+TEST_CASE("a knob's range is the material's: the parser reports a value outside it at its JSON path") {
+  scene::Material m;
+  m.name = "fur";
+  m.type = "shell_fur";
+  m.json_path = "$.materials.fur";
+  m.params = {{"photo", "fur.png"}, {"layers", 257}, {"fin_threshold", 2}};
+  m.base_dir = std::filesystem::temp_directory_path() / "weft_test_tradeoff";
+  std::filesystem::create_directories(m.base_dir);
+  std::ofstream(m.base_dir / "fur.png") << "x";
+  auto bad = passes::shell_fur_feature().check_material(m);
+  REQUIRE_FALSE(bad);
+  CHECK(bad.error().message.find("$.materials.fur.layers: 257 is out of range [1, 256]") != std::string::npos);
+  CHECK(bad.error().message.find("$.materials.fur.fin_threshold: 2 is out of range [0, 1]") != std::string::npos);
 }
 
 TEST_CASE("masked error metrics against analytic values") {

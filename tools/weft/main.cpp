@@ -3,8 +3,15 @@
 #include <exception>
 #include <vector>
 #include "commands.h"
+import weft.core;
+import weft.builtin_features;
 
 int main(int argc, char** argv) {
+  // Scene files name these features' material types; `weft tradeoff` sweeps their knobs.
+  if (auto ok = weft::register_builtin_features(); !ok) {
+    std::fprintf(stderr, "weft: %s\n", ok.error().what().c_str());
+    return 70;
+  }
   CLI::App app{"weft: a render-graph engine over Vulkan"};
   app.require_subcommand(1);
   std::vector<std::pair<CLI::App*, weft::cli::Command>> commands;

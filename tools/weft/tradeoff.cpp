@@ -107,7 +107,7 @@ Result<image::Image8> coverage_render(gpu::Device& device, const scene::Scene& b
   scene::Scene scene = base;
   for (auto& m : scene.materials) {
     if (m.type != study.material) continue;
-    m.type = scene::MaterialType::Standard;
+    m.type = scene::standard_material;
     m.standard = {};
     m.standard.base_color = vec3(0.0f);
     m.standard.emissive = vec3(white ? 1e4f : 0.0f);
@@ -120,9 +120,13 @@ Result<image::Image8> coverage_render(gpu::Device& device, const scene::Scene& b
 }
 
 void print_list() {
-  for (const auto& s : to::studies()) {
-    std::printf("%s (material \"%s\", cost: %s)\n  reference: %s\n", s.feature.c_str(),
-                std::string(scene::to_string(s.material)).c_str(), std::string(to::to_string(s.cost)).c_str(),
+  for (const to::Study* study : to::studies()) {
+    const to::Study& s = *study;
+    std::string aliases;
+    for (const auto& a : s.descriptor->aliases) aliases += (aliases.empty() ? " (also " : ", ") + a;
+    if (!aliases.empty()) aliases += ")";
+    std::printf("%s%s: %s; %s (cost: %s)\n  reference: %s\n", s.feature.c_str(), aliases.c_str(),
+                s.descriptor->summary.c_str(), s.descriptor->doc.c_str(), std::string(to::to_string(s.cost)).c_str(),
                 s.reference_why.c_str());
     for (const auto& k : s.knobs) {
       std::string sweep;
@@ -162,7 +166,7 @@ int run(const Args& a) {
   if (!to::scene_uses(*scene, (*study)->material))
     return failed({ErrorKind::InvalidArgument,
                    weft::format("'{}' has no \"{}\" material: nothing for the {} study to sweep", a.scene_path,
-                                scene::to_string((*study)->material), (*study)->feature)});
+                                (*study)->material, (*study)->feature)});
   const std::filesystem::path out = a.out.empty() ? "tradeoff-" + (*study)->feature : a.out;
   std::error_code ec;
   std::filesystem::create_directories(out, ec);

@@ -31,16 +31,16 @@ namespace {
 constexpr std::uint32_t kBakeRevision = 1;
 
 void read_bake(scene::JsonReader& r, BakeOptions& bake) {
-  bake.resolution = std::uint32_t(r.integer("resolution", bake.resolution, {.min = 2, .max = 256}));
+  const auto& knobs = passes::ssdf_lighting_feature().knobs;
+  bake.resolution = std::uint32_t(read_integer_knob(r, *find_knob(knobs, "bake.resolution"), bake.resolution));
   auto& c = bake.compression;
-  c.clusters = std::size_t(r.integer("clusters", std::int64_t(c.clusters), {.min = 1, .max = 65536}));
-  if (r.has("components"))
-    c.max_components = std::size_t(r.integer("components", 16, {.min = 0, .max = 65536}));
+  c.clusters = std::size_t(read_integer_knob(r, *find_knob(knobs, "bake.clusters"), std::int64_t(c.clusters)));
+  if (r.has("components")) c.max_components = std::size_t(read_integer_knob(r, *find_knob(knobs, "bake.components"), 16));
   c.energy_fraction = r.number("energy", c.energy_fraction, {.min = 0, .max = 1, .min_exclusive = true});
   c.seeding = r.string("seeding", "kmeans++", {"kmeans++", "farthest"}) == "farthest" ? cluster::Seeding::FarthestPoint
                                                                                       : cluster::Seeding::KMeansPlusPlus;
   c.seed = std::uint64_t(r.integer("seed", std::int64_t(c.seed), {.min = 0, .max = 9007199254740991.0}));
-  const std::string format = r.string("coefficients", "fp32", {"fp32", "fp16", "8bit"});
+  const std::string format = read_choice_knob(r, *find_knob(knobs, "bake.coefficients"), "fp32");
   c.coefficients = format == "fp16"   ? cluster::CoefficientFormat::Float16
                    : format == "8bit" ? cluster::CoefficientFormat::Unorm8
                                       : cluster::CoefficientFormat::Float32;
@@ -80,8 +80,10 @@ Result<SsdfMaterial> parse_ssdf_material(const scene::Material& material, Qualit
       r.error(weft::format("an ssdf material is an object, got {}", scene::json_type_name(material.params)));
     } else {
       m.albedo = r.vec3_of("albedo", m.albedo, {.min = 0, .max = 1});
-      m.shading = r.string("shading", "pixel", {"vertex", "pixel"}) == "vertex" ? ShadingMode::Vertex : ShadingMode::Pixel;
-      m.lobes = std::uint32_t(r.integer("lobes", m.lobes, {.min = 1, .max = max_lobes}));
+      const auto& knobs = passes::ssdf_lighting_feature().knobs;
+      m.shading = read_choice_knob(r, *find_knob(knobs, "shading"), "pixel") == "vertex" ? ShadingMode::Vertex
+                                                                                          : ShadingMode::Pixel;
+      m.lobes = std::uint32_t(read_integer_knob(r, *find_knob(knobs, "lobes"), m.lobes));
       if (auto bake = r.object("bake")) read_bake(*bake, m.bake);
       r.finish();
     }

@@ -27,8 +27,8 @@ namespace weft::passes {
 
 namespace {
 
-constexpr gpu::Format color_format = gpu::Format::RGBA16Float;  // the frame's "scene_color"
-constexpr gpu::Format depth_format = gpu::Format::Depth32Float;  // the frame's "scene_depth"
+constexpr gpu::Format color_format = frame::scene_color_format;
+constexpr gpu::Format depth_format = frame::scene_depth_format;
 constexpr std::uint32_t kNoMean = 0xffffffffu;
 
 // The push constants of ssdf_common.glsl.
@@ -172,88 +172,54 @@ Result<void> SSDFLightingPass::add(RenderGraph& graph, std::span<const SsdfDraw>
                   "ssdf_lighting: draw {} ('{}') reads SSDF rows {} .. {}, but the asset has {} vertices", i,
                   d.mesh->name, d.base_vertex, std::uint64_t(d.base_vertex) + d.mesh->vertex_count, d.asset->vertex_count);
   }
-  auto& board = graph.blackboard();
-  auto uniforms = board.get<BufferHandle>("frame_uniforms");
-  auto shadow_map = board.get<TextureHandle>("shadow_map");
-  auto color = board.get<TextureHandle>("scene_color");
-  auto depth = board.get<TextureHandle>("scene_depth");
-  for (const Error* e : {uniforms ? nullptr : &uniforms.error(), shadow_map ? nullptr : &shadow_map.error(),
-                         color ? nullptr : &color.error(), depth ? nullptr : &depth.error()})
-    if (e) return std::unexpected(*e);
-
-  // Persistent buffers, imported once each so the graph shows (and orders) them.
-  std::map<const gpu::Buffer*, BufferHandle> buffers;
-  auto import = [&](const gpu::Buffer& b) {
-    if (!buffers.contains(&b)) buffers[&b] = graph.import_buffer(b.label(), &b, gpu::Access::StorageRead);
-  };
-  import(state_->table);
+  // The direction table, each draw's lobes and each SSDF asset are persistent buffers.
+  frame::ScenePassDesc desc{.name = "ssdf_lighting"};
+  auto buffer = [&](const gpu::Buffer& b) { desc.buffers.push_back({b.label(), &b}); };
+  buffer(state_->table);
   for (const SsdfDraw& d : draws) {
-    import(d.lobes->buffer);
-    import(d.asset->vertex_table);
-    import(d.asset->cluster_table);
-    import(d.asset->data);
+    buffer(d.lobes->buffer);
+    buffer(d.asset->vertex_table);
+    buffer(d.asset->cluster_table);
+    buffer(d.asset->data);
   }
-
-  struct Data {
-    BufferHandle uniforms;
-    TextureHandle shadow_map, color, depth;
-    std::map<const gpu::Buffer*, BufferHandle> buffers;
-  };
   auto state = state_;
-  auto& data = graph.add_pass<Data>(
-      "ssdf_lighting",
-      [&](PassBuilder& b, Data& d) {
-        d.uniforms = b.read(*uniforms, BufferUse::Uniform);
-        d.shadow_map = b.read(*shadow_map, TextureUse::Sampled);
-        for (auto& [buffer, handle] : buffers) d.buffers[buffer] = b.read(handle, BufferUse::StorageRead);
-        d.color = b.write(*color, TextureUse::ColorAttachment);
-        d.depth = b.write(*depth, TextureUse::DepthAttachment);
-      },
-      [state, draws](const PassResources& res, const Data& d, PassContext& ctx) {
-        // One bind group per (asset, lobes) pair.
-        std::vector<std::pair<std::pair<const SsdfGpuAsset*, const SsdfGpuLobes*>, const gpu::BindGroup*>> groups;
-        auto group_for = [&](const SsdfDraw& draw) -> const gpu::BindGroup* {
-          const auto key = std::pair{draw.asset, draw.lobes};
-          for (auto& [k, g] : groups)
-            if (k == key) return g;
-          auto buffer = [&](const gpu::Buffer& b) -> const gpu::Buffer& { return res.buffer(d.buffers.at(&b)); };
-          auto group = ctx.device().create_bind_group(
-              {.label = "ssdf_lighting",
-               .layout = &state->bind_layout,
-               .entries = {gpu::bind(0, res.buffer(d.uniforms)), gpu::bind(1, res.view(d.shadow_map), &state->shadow),
-                           gpu::bind(2, buffer(state->table)), gpu::bind(3, buffer(draw.lobes->buffer)),
-                           gpu::bind(4, buffer(draw.asset->vertex_table)), gpu::bind(5, buffer(draw.asset->cluster_table)),
-                           gpu::bind(6, buffer(draw.asset->data))}});
-          if (!group) {
-            ctx.encoder().report_error(group.error());
-            return nullptr;
-          }
-          groups.emplace_back(key, &ctx.keep(std::move(*group)));
-          return groups.back().second;
-        };
-        auto pass = ctx.encoder().begin_render_pass(
-            {.label = "ssdf_lighting",
-             .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}},
-             .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .load = gpu::LoadOp::Load}});
-        pass.set_pipeline(state->pipeline);
-        for (const SsdfDraw& draw : draws) {
-          const gpu::BindGroup* group = group_for(draw);
-          if (!group) break;
-          pass.set_bind_group(0, *group);
-          const float half_spacing = 0.5f * std::sqrt(4.0f * pi) / float(draw.asset->resolution);  // DirectionGrid::spacing
-          pass.push(SsdfPush{draw.model,
-                             vec4(draw.albedo, draw.shading == ssdf::ShadingMode::Pixel ? 1.0f : 0.0f),
-                             glm::uvec4(draw.base_vertex, draw.lobes->count, draw.asset->directions, 0u),
-                             vec4(half_spacing, 0.0f, 0.0f, 0.0f)});
-          pass.set_vertex_buffer(0, draw.mesh->vertices);
-          pass.set_index_buffer(draw.mesh->indices);
-          pass.draw_indexed(draw.mesh->index_count);
-        }
-        pass.end();
-      });
-  board.put("scene_color", data.color);
-  board.put("scene_depth", data.depth);
-  return {};
+  return frame::add_scene_color_pass(graph, std::move(desc), [state, draws](frame::ScenePassDraw& scene) {
+    PassContext& ctx = scene.context;
+    // One bind group per (asset, lobes) pair.
+    std::vector<std::pair<std::pair<const SsdfGpuAsset*, const SsdfGpuLobes*>, const gpu::BindGroup*>> groups;
+    auto group_for = [&](const SsdfDraw& draw) -> const gpu::BindGroup* {
+      const auto key = std::pair{draw.asset, draw.lobes};
+      for (auto& [k, g] : groups)
+        if (k == key) return g;
+      auto group = ctx.device().create_bind_group(
+          {.label = "ssdf_lighting",
+           .layout = &state->bind_layout,
+           .entries = {gpu::bind(0, scene.uniforms), gpu::bind(1, scene.shadow_map, &state->shadow),
+                       gpu::bind(2, state->table), gpu::bind(3, draw.lobes->buffer),
+                       gpu::bind(4, draw.asset->vertex_table), gpu::bind(5, draw.asset->cluster_table),
+                       gpu::bind(6, draw.asset->data)}});
+      if (!group) {
+        ctx.encoder().report_error(group.error());
+        return nullptr;
+      }
+      groups.emplace_back(key, &ctx.keep(std::move(*group)));
+      return groups.back().second;
+    };
+    gpu::RenderPassEncoder& pass = scene.pass;
+    pass.set_pipeline(state->pipeline);
+    for (const SsdfDraw& draw : draws) {
+      const gpu::BindGroup* group = group_for(draw);
+      if (!group) break;
+      pass.set_bind_group(0, *group);
+      const float half_spacing = 0.5f * std::sqrt(4.0f * pi) / float(draw.asset->resolution);  // DirectionGrid::spacing
+      pass.push(SsdfPush{draw.model, vec4(draw.albedo, draw.shading == ssdf::ShadingMode::Pixel ? 1.0f : 0.0f),
+                         glm::uvec4(draw.base_vertex, draw.lobes->count, draw.asset->directions, 0u),
+                         vec4(half_spacing, 0.0f, 0.0f, 0.0f)});
+      pass.set_vertex_buffer(0, draw.mesh->vertices);
+      pass.set_index_buffer(draw.mesh->indices);
+      pass.draw_indexed(draw.mesh->index_count);
+    }
+  });
 }
 
 }  // namespace weft::passes

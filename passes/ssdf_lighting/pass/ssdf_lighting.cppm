@@ -118,7 +118,7 @@ class SSDFLightingPass {
   std::shared_ptr<State> state_;
 };
 
-// The FeaturePass for scene::MaterialType::Ssdf (registered in the renderer's features.cpp).
-Result<std::unique_ptr<FeaturePass>> create_ssdf_feature(gpu::Device& device);
+// The feature: material type "ssdf_lighting" (alias "ssdf"), its knob table, its FeaturePass.
+const FeatureDescriptor& ssdf_lighting_feature();
 
 }  // namespace weft::passes

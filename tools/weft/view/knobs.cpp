@@ -1,6 +1,6 @@
-// The knobs the UI offers for a material: the feature's knob table and its preset values.
-// One adapter, so that moving from weft.tradeoff's catalogue to the feature registry is an
-// edit of this file alone.
+// The knobs the UI offers for a material: its feature's knob table and preset values, read
+// from the feature registry (weft.feature) — the table the material parser, `weft tradeoff`
+// and the stability sweep read too.
 module;
 #include <algorithm>
 #include <string>
@@ -8,33 +8,30 @@ module;
 #include <nlohmann/json.hpp>
 module weft.viewer;
 import weft.scene;
-import weft.tradeoff;
+import weft.feature;
 
 namespace weft::viewer::detail {
 
-std::string material_type_name(const scene::Material& material) { return std::string(scene::to_string(material.type)); }
-bool is_standard(const scene::Material& material) { return material.type == scene::MaterialType::Standard; }
+std::string material_type_name(const scene::Material& material) { return material.type; }
+bool is_standard(const scene::Material& material) { return material.type == scene::standard_material; }
 
 nlohmann::json reference_values(const scene::Material& material, std::string* why) {
-  for (const auto& study : tradeoff::studies()) {
-    if (study.material != material.type) continue;
-    if (why) *why = study.reference_why;
-    return study.reference.values;
-  }
-  return nullptr;
+  const FeatureDescriptor* feature = feature_registry().find(material.type);
+  if (!feature) return nullptr;
+  if (why) *why = feature->reference_why;
+  return feature->reference;
 }
 
 std::vector<UiKnob> knobs_for(const scene::Material& material, Quality quality) {
   std::vector<UiKnob> out;
-  for (const auto& study : tradeoff::studies()) {
-    if (study.material != material.type) continue;
-    const nlohmann::json preset = study.preset_values ? study.preset_values(quality) : nlohmann::json::object();
-    for (const auto& knob : study.knobs) {
-      UiKnob k{knob.name, KnobKind(knob.kind), knob.min, knob.max, knob.choices, knob.meaning, nullptr};
-      // Preset values are keyed by the knob's full name.
-      if (preset.is_object() && preset.contains(knob.name)) k.preset = preset[knob.name];
-      out.push_back(std::move(k));
-    }
+  const FeatureDescriptor* feature = feature_registry().find(material.type);
+  if (!feature) return out;
+  const nlohmann::json preset = feature->preset_values ? feature->preset_values(quality) : nlohmann::json::object();
+  for (const auto& knob : feature->knobs) {
+    UiKnob k{knob.name, KnobKind(knob.kind), knob.min, knob.max, knob.choices, knob.meaning, nullptr};
+    // Preset values are keyed by the knob's full name.
+    if (preset.is_object() && preset.contains(knob.name)) k.preset = preset[knob.name];
+    out.push_back(std::move(k));
   }
   return out;
 }

@@ -101,8 +101,7 @@ class UiRenderer {
   std::shared_ptr<State> state_;
 };
 
-// A knob as the UI shows it. Read today from weft.tradeoff's catalogue (knobs.cpp); the
-// feature registry (weft.feature) replaces it there once every feature registers its table.
+// A knob as the UI shows it, read from the feature registry's knob tables (knobs.cpp).
 enum class KnobKind : std::uint8_t { Integer, Number, Boolean, Choice };
 struct UiKnob {
   std::string name;  // the material field; '.' descends: "lut.size"

@@ -1,5 +1,5 @@
-// FurFrame: ShellFurPass in a frame of its own (clear -> fur -> readback), for tests,
-// benchmarks and accuracy studies that need a camera the scene format does not have.
+// FurFrame: ShellFurPass in a frame of its own (clear -> fur -> readback), for the fur tests
+// and benchmark, which need a camera the scene format does not have.
 module;
 #include <cstddef>
 #include <cstdint>
@@ -11,7 +11,8 @@ module;
 #include <vector>
 #include <glm/glm.hpp>
 #include <glm/gtc/packing.hpp>
-module weft.pass.shell_fur;
+module weft.test.fur_frame;
+import weft.pass.shell_fur;
 import weft.core;
 import weft.gpu;
 import weft.graph;
@@ -76,8 +77,8 @@ Result<void> FurFrame::set_draws(const ShellFurPass& pass, std::span<const Shell
   s.graph.reset();
   RenderGraph graph("fur_frame");
   auto& board = graph.blackboard();
-  board.put("frame_uniforms", graph.import_buffer("frame_uniforms", &s.uniforms, gpu::Access::UniformRead));
-  board.put("shadow_map", graph.import_texture("no_shadow", &s.shadow, gpu::Access::ShaderRead));
+  frame::put_scene_targets(board, {.uniforms = graph.import_buffer("frame_uniforms", &s.uniforms, gpu::Access::UniformRead),
+                                   .shadow_map = graph.import_texture("no_shadow", &s.shadow, gpu::Access::ShaderRead)});
   struct Clear {
     TextureHandle color, depth;
   };
@@ -96,10 +97,11 @@ Result<void> FurFrame::set_draws(const ShellFurPass& pass, std::span<const Shell
                                                   .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth)}});
         p.end();
       });
-  board.put("scene_color", clear.color);
-  board.put("scene_depth", clear.depth);
+  frame::put_scene_targets(board, {.color = clear.color, .depth = clear.depth});
   if (auto ok = pass.add(graph, draws); !ok) return ok;
-  graph.mark_output(*board.get<TextureHandle>("scene_color"), gpu::Access::CopySrc);
+  auto targets = frame::scene_targets(board, {.environment = false});
+  if (!targets) return std::unexpected(targets.error());
+  graph.mark_output(targets->color, gpu::Access::CopySrc);
   auto compiled = graph.compile({.output_extent = {s.settings.width, s.settings.height, 1}, .device = s.device});
   if (!compiled) return std::unexpected(compiled.error().to_error());
   s.graph.emplace(std::move(*compiled));
