@@ -4,6 +4,11 @@
 #                              (extra args go to `weft render`, e.g. --size 640x360 --quality high)
 #   ./weft.sh test [--asan]    install what is missing, build, run every test suite (ctest)
 #   ./weft.sh build [--asan]   install what is missing and build only
+#   ./weft.sh fuzz [--seconds N] [HARNESS...]
+#                              build the libFuzzer harnesses (preset fuzz, tests/fuzz) and run each
+#                              for N seconds (default 60) from its seed corpus; new inputs go to
+#                              build/fuzz/corpus/, crashes to build/fuzz/crashes/ (copy a crash into
+#                              tests/fuzz/crashes/<corpus>/ once fixed: ctest replays it)
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -43,8 +48,39 @@ case "$command_name" in
     build
     ctest --preset "$preset" -j "$jobs"
     ;;
+  fuzz)
+    seconds=60
+    only=()
+    while [ $# -gt 0 ]; do
+      case "$1" in
+        --seconds) seconds="${2:?--seconds needs a number}"; shift 2 ;;
+        --seconds=*) seconds="${1#--seconds=}"; shift ;;
+        -*) echo "./weft.sh fuzz: unknown option $1" >&2; exit 2 ;;
+        *) only+=("$1"); shift ;;
+      esac
+    done
+    ./tools/bootstrap.sh
+    cmake --preset fuzz >/dev/null
+    cmake --build --preset fuzz -j "$jobs"
+    mkdir -p build/fuzz/crashes
+    status=0
+    while read -r name seeds; do
+      [ -z "$name" ] && continue
+      if [ ${#only[@]} -gt 0 ] && [[ ! " ${only[*]} " =~ " $name " ]]; then continue; fi
+      work="build/fuzz/corpus/$name"
+      mkdir -p "$work"
+      echo "== $name ($seconds s)"
+      log="build/fuzz/$name.log"
+      rc=0
+      build/fuzz/bin/"$name" -max_total_time="$seconds" -print_final_stats=1 -timeout=10 -rss_limit_mb=4096 \
+        -artifact_prefix="build/fuzz/crashes/$name-" "$work" "$seeds" >"$log" 2>&1 || rc=$?
+      grep -E '^(stat::number_of_executed_units|stat::peak_rss_mb|SUMMARY|Test unit written|Done )' "$log" || true
+      if [ "$rc" -ne 0 ]; then echo "!! $name stopped with $rc: see $log and build/fuzz/crashes/"; status=1; fi
+    done < build/fuzz/fuzzers.txt
+    exit $status
+    ;;
   *)
-    echo "usage: ./weft.sh demo | test [--asan] | build [--asan]" >&2
+    echo "usage: ./weft.sh demo | test [--asan] | build [--asan] | fuzz [--seconds N] [HARNESS...]" >&2
     exit 2
     ;;
 esac

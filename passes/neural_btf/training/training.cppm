@@ -169,8 +169,9 @@ struct TrainResult {
 
 }  // namespace weft::btf
 
-// Not exported: shared by the implementation files (train.cpp, checkpoint.cpp).
-namespace weft::btf::training_detail {
+// Shared by the implementation files (train.cpp, checkpoint.cpp); exported only so that
+// tests and the checkpoint fuzzer (tests/fuzz) reach the reader. Not API.
+export namespace weft::btf::training_detail {
 // Where a training run stands; what a checkpoint stores besides a fingerprint of the data
 // and the options.
 struct TrainState {
