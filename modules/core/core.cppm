@@ -1,11 +1,14 @@
 // weft.core — what every weft module shares: errors as values (Result/Error), logging,
-// GLM math aliases, content hashing and bounds-checked binary reading and writing. Nothing
+// GLM math aliases, content hashing, bounds-checked binary reading and writing, and atomic
+// file writes. Nothing
 // here knows about GPUs, graphs or scenes.
 module;
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <expected>
+#include <filesystem>
+#include <initializer_list>
 #include <span>
 #include <string>
 #include <string_view>
@@ -167,6 +170,15 @@ class BinaryReader {
   std::string_view source_, section_;
   std::size_t at_ = 0;
 };
+
+// ---- files ---------------------------------------------------------------------------
+// Writes `parts` end to end as `path`, atomically (files.cpp): a temporary unique to the
+// call, fsync, rename. Readers never see half a file or two writers' bytes mixed; on
+// failure (no space, no permission, a missing folder) nothing is left behind and the Io
+// error names `what` and the path: "cannot write skin LUT cache 'x.exr': No space left on device".
+[[nodiscard]] Result<void> write_file_atomically(const std::filesystem::path& path,
+                                                 std::initializer_list<std::span<const std::byte>> parts,
+                                                 std::string_view what);
 
 // ---- logging -------------------------------------------------------------------------
 // Thin wrappers over spdlog so modules need not include it; the level comes from

@@ -334,6 +334,15 @@ Encoded encode_png(int width, int height, int channels, const std::uint8_t* pixe
   return out;
 }
 
+Encoded encode_jpeg(int width, int height, int channels, const std::uint8_t* pixels, int quality) {
+  Encoded out;
+  if (stbi_write_jpg_to_func(append_bytes, &out.bytes, width, height, channels, pixels, quality) == 0) {
+    out.bytes.clear();
+    out.error = "stb_image_write could not encode the JPEG";
+  }
+  return out;
+}
+
 Encoded encode_radiance(int width, int height, int channels, const float* pixels) {
   // RGBE holds non-negative finite values up to 255/256 * 2^127 (8-bit exponent).
   const float largest = std::ldexp(255.0f / 256.0f, 127);

@@ -37,6 +37,8 @@ Decoded<float> decode_exr(const std::uint8_t* data, std::size_t size);
 
 // Sizes are checked by the caller (positive, channels 1..4, fit in int).
 Encoded encode_png(int width, int height, int channels, const std::uint8_t* pixels);
+// Baseline JPEG; alpha is dropped. quality 1..100.
+Encoded encode_jpeg(int width, int height, int channels, const std::uint8_t* pixels, int quality);
 Encoded encode_radiance(int width, int height, int channels, const float* pixels);
 Encoded encode_exr(int width, int height, int channels, const float* pixels, bool half);
 

@@ -83,6 +83,8 @@ struct Image8 {
 // Like load_ldr, but the file must be a PNG.
 [[nodiscard]] Result<Image8> load_png(const std::filesystem::path& path);
 [[nodiscard]] Result<void> save_png(const std::filesystem::path& path, const Image8& image);
+// Baseline JPEG at quality 90 (alpha dropped): for pictures, not data.
+[[nodiscard]] Result<void> save_jpeg(const std::filesystem::path& path, const Image8& image);
 
 // Radiance RGBE (.hdr): 3 channels of linear float.
 [[nodiscard]] Result<Image> load_hdr(const std::filesystem::path& path);

@@ -1,6 +1,6 @@
 // weft.image: reading and writing image files. Bytes move between disk and memory here
 // (with the errors a user sees); the codecs in codecs.cpp only turn bytes into pixels and
-// back. Saves go through `path + ".tmp"` and a rename, so failures leave no half file.
+// back. Saves go through weft::write_file_atomically, so failures leave no half file.
 module;
 #include <cerrno>
 #include <climits>
@@ -58,34 +58,11 @@ Result<std::vector<std::uint8_t>> read_bytes(const fs::path& path) {
 }
 
 Result<void> write_bytes(const fs::path& path, std::span<const std::uint8_t> bytes) {
-  if (path.empty() || !path.has_filename()) {
-    return fail(ErrorKind::InvalidArgument, "cannot write image to '{}': not a file path", path.string());
-  }
   std::error_code ec;
   if (fs::is_directory(path, ec)) {
     return fail(ErrorKind::Io, "cannot write image '{}': it is a directory", path.string());
   }
-  fs::path tmp = path;
-  tmp += ".tmp";
-  std::FILE* file = std::fopen(tmp.c_str(), "wb");
-  if (file == nullptr) {
-    return fail(ErrorKind::Io, "cannot write image '{}': {}", path.string(), std::strerror(errno));
-  }
-  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size();
-  const int write_errno = errno;
-  const bool flushed = std::fflush(file) == 0;
-  const bool closed = std::fclose(file) == 0;
-  if (!written || !flushed || !closed) {
-    fs::remove(tmp, ec);
-    return fail(ErrorKind::Io, "cannot write image '{}': {}", path.string(), std::strerror(write_errno));
-  }
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    std::error_code ignored;
-    fs::remove(tmp, ignored);
-    return fail(ErrorKind::Io, "cannot write image '{}': {}", path.string(), ec.message());
-  }
-  return {};
+  return write_file_atomically(path, {std::as_bytes(bytes)}, "image");
 }
 
 // stb and tinyexr take int sizes.
@@ -132,6 +109,15 @@ Result<void> save_png(const fs::path& path, const Image8& image) {
   if (auto ok = check_encodable(path, image, "PNG"); !ok) return ok;
   auto encoded = codec::encode_png(static_cast<int>(image.width), static_cast<int>(image.height),
                                    static_cast<int>(image.channels), image.pixels.data());
+  if (!encoded.error.empty()) return fail(ErrorKind::Internal, "saving '{}': {}", path.string(), encoded.error);
+  return write_bytes(path, encoded.bytes);
+}
+
+Result<void> save_jpeg(const fs::path& path, const Image8& image) {
+  if (auto ok = check_encodable(path, image, "JPEG"); !ok) return ok;
+  constexpr int quality = 90;
+  auto encoded = codec::encode_jpeg(static_cast<int>(image.width), static_cast<int>(image.height),
+                                    static_cast<int>(image.channels), image.pixels.data(), quality);
   if (!encoded.error.empty()) return fail(ErrorKind::Internal, "saving '{}': {}", path.string(), encoded.error);
   return write_bytes(path, encoded.bytes);
 }
@@ -202,11 +188,12 @@ Result<void> save_image(const fs::path& path, const Image& image, float exposure
 Result<void> save_image(const fs::path& path, const Image8& image) {
   const std::string ext = lower_extension(path);
   if (ext == ".png") return save_png(path, image);
+  if (ext == ".jpg" || ext == ".jpeg") return save_jpeg(path, image);
   if (ext == ".exr" || ext == ".hdr") {
     if (auto ok = validate(image); !ok) return with_context(weft::format("saving '{}'", path.string()), ok.error());
     return ext == ".exr" ? save_exr(path, from_srgb8(image)) : save_hdr(path, from_srgb8(image));
   }
-  return fail(ErrorKind::Unsupported, "cannot save '{}': unknown image extension '{}' (use .png, .exr or .hdr)",
+  return fail(ErrorKind::Unsupported, "cannot save '{}': unknown image extension '{}' (use .png, .jpg, .exr or .hdr)",
               path.string(), ext);
 }
 

@@ -366,8 +366,8 @@ bool has_key_light(const scene::Scene& scene) {
 Result<std::pair<std::uint32_t, std::uint32_t>> frame_size(const scene::Scene& scene, const RenderOptions& options) {
   const std::uint32_t w = options.width ? options.width : scene.output.width;
   const std::uint32_t h = options.height ? options.height : scene.output.height;
-  if (w == 0 || h == 0 || w > 16384 || h > 16384)
-    return fail(ErrorKind::InvalidArgument, "output size {}x{} must be within 1..16384 on each side", w, h);
+  if (w == 0 || h == 0 || w > scene::max_output_side || h > scene::max_output_side)
+    return fail(ErrorKind::InvalidArgument, "output size {}x{} must be within 1..{} on each side", w, h, scene::max_output_side);
   return std::pair{w, h};
 }
 }  // namespace

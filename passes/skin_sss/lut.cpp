@@ -251,6 +251,16 @@ Result<void> validate(const LutParams& p) {
   if (!(p.convention.variance_scale > 0.0) || !std::isfinite(p.convention.variance_scale))
     return fail(ErrorKind::InvalidArgument, "skin LUT variance scale {} must be positive and finite",
                 p.convention.variance_scale);
+  // The cost is texels x samples (256x256 at 256 samples: about 0.12 s on one core); each
+  // knob alone may reach its end, but not all at once (4096x4096 at 65,536 samples would
+  // take about two hours).
+  constexpr std::uint64_t max_work = std::uint64_t{1} << 32;
+  const std::uint64_t work = std::uint64_t(p.width) * p.height * p.samples;
+  if (work > max_work)
+    return fail(ErrorKind::InvalidArgument,
+                "skin LUT {}x{} with {} samples is {:.3g} texel-samples, more than the limit of {:.3g} (about 30 s on one "
+                "core): use fewer texels or samples",
+                p.width, p.height, p.samples, double(work), double(max_work));
   return {};
 }
 

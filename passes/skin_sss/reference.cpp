@@ -5,6 +5,7 @@ module;
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <expected>
@@ -143,7 +144,22 @@ Result<std::vector<vec3>> mesh_reference(const scene::Mesh& mesh, const MeshRefe
   const std::uint32_t thread_count =
       std::max(1u, std::min<std::uint32_t>(options.threads ? options.threads : std::thread::hardware_concurrency(),
                                            std::uint32_t(std::min<std::size_t>(n, 1024))));
-  auto worker = [&] {
+  // A large mesh takes minutes (about 6 ms per vertex on one core): the first worker logs
+  // progress and an estimate every 10 s.
+  std::atomic<std::size_t> done{0};
+  const auto start = std::chrono::steady_clock::now();
+  auto last_report = start;
+  const auto report = [&] {
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_report < std::chrono::seconds(10)) return;
+    last_report = now;
+    const std::size_t finished = done.load();
+    const double elapsed = std::chrono::duration<double>(now - start).count();
+    const double left = finished > 0 ? elapsed * double(n - finished) / double(finished) : 0.0;
+    log::info(weft::format("skin mesh reference: {} of {} vertices ({:.0f} %), {:.0f} s elapsed, about {:.0f} s left",
+                           finished, n, 100.0 * double(finished) / double(n), elapsed, left));
+  };
+  auto worker = [&](bool reports) {
     std::vector<std::uint32_t> stamp(triangle_count, ~0u);
     struct Cell {
       glm::dvec3 p[3], nv[3];
@@ -212,13 +228,15 @@ Result<std::vector<vec3>> mesh_reference(const scene::Mesh& mesh, const MeshRefe
           result[ch] = float(bottom[ch] > 0.0 ? std::clamp(top[ch] / bottom[ch], 0.0, 1.0) : flat);
         out[vi] = result;
       }
+      done += std::min(n, v + 16) - v;
+      if (reports) report();
     }
   };
   if (thread_count <= 1) {
-    worker();
+    worker(true);
   } else {
     std::vector<std::thread> pool;
-    for (std::uint32_t t = 0; t < thread_count; ++t) pool.emplace_back(worker);
+    for (std::uint32_t t = 0; t < thread_count; ++t) pool.emplace_back(worker, t == 0);
     for (auto& th : pool) th.join();
   }
   return out;

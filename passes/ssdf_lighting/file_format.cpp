@@ -312,12 +312,7 @@ Result<Asset> decode(std::span<const std::byte> bytes, std::string_view source) 
 
 Result<void> write_file(const std::filesystem::path& path, const Asset& asset) {
   const auto bytes = encode(asset);
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) return fail(ErrorKind::Io, "cannot open '{}' for writing", path.string());
-  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-  out.close();
-  if (!out) return fail(ErrorKind::Io, "writing '{}' failed", path.string());
-  return {};
+  return write_file_atomically(path, {std::span<const std::byte>(bytes)}, "SSDF file");
 }
 
 Result<Asset> read_file(const std::filesystem::path& path) {

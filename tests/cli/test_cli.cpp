@@ -2,6 +2,8 @@
 // exit; good input writes the image. Runs the real binaries.
 #include <doctest/doctest.h>
 #include "../support/run_command.h"
+#include <algorithm>
+#include <cmath>
 #include <array>
 #include <cstdio>
 #include <cstdlib>
@@ -11,6 +13,8 @@
 #include <string>
 #include <sys/wait.h>
 #include <unistd.h>
+
+import weft.image;
 
 namespace {
 using weft::test::run_command;
@@ -160,5 +164,96 @@ TEST_CASE("weft bake btf: bad input is named; a 4 x 4 synthetic fabric trains in
   REQUIRE_MESSAGE(r.exit_code == 0, r.output);
   CHECK(contains(r.output, "RMSE"));
   CHECK(std::filesystem::file_size(dir / "x.wbtf") > 1000);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("issue 21: bad numbers and words on the command line are named, never echoed wrong") {
+  const auto dir = temp_dir();
+  std::ofstream(dir / "s.json") << scene;
+  const std::string s = (dir / "s.json").string(), png = " -o " + (dir / "x.png").string();
+  struct Case {
+    std::string args, expect;
+  };
+  for (const auto& c : {Case{"render " + s + png + " --exposure nan", "--exposure nan must be a number in (0, 1e6]"},
+                        Case{"render " + s + png + " --exposure -1", "--exposure -1"},
+                        Case{"render " + s + png + " --exposure inf", "--exposure inf"},
+                        Case{"render " + s + png + " --exposure 0", "--exposure 0"},
+                        Case{"render " + s + png + " --size -1x-1", "got '-1x-1'"},
+                        Case{"render " + s + png + " --size 16384x16384", "each side 1 to 8192"},
+                        Case{"render " + s + " -o " + (dir / "x.bmp").string(), "weft writes .png, .jpg, .exr and .hdr"},
+                        Case{"rnder " + s, "unknown command 'rnder' (commands: info, render"},
+                        Case{"bake btf --synthetic 4x4 --epochs 0 -o " + (dir / "x.wbtf").string(), "--epochs"},
+                        Case{"bake skin-lut --size 4096 --samples 65536 -o " + (dir / "lut.exr").string(), "texel-samples"}}) {
+    const auto r = run_command(cli + " " + c.args);
+    CHECK_MESSAGE(r.exit_code != 0, c.args);
+    CHECK_MESSAGE(contains(r.output, c.expect), c.args << " -> " << r.output);
+    CHECK_MESSAGE(!contains(r.output, "4294967295"), r.output);
+  }
+  CHECK_FALSE(std::filesystem::exists(dir / "x.png"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("issue 21: a synthetic BTF too large for memory is refused up front, not a bad_alloc") {
+  const auto dir = temp_dir();
+  const auto r = run_command(cli + " bake btf --synthetic 4096x4096 --epochs 1 -o " + (dir / "x.wbtf").string());
+  CHECK(r.exit_code == 1);
+  CHECK_MESSAGE(contains(r.output, "4096 x 4096 texels at 81 x 81 directions is 1230.2 GiB of samples"), r.output);
+  CHECK_FALSE(contains(r.output, "exception"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("issue 21: -o .exr, .hdr and .jpg write those formats, not PNG bytes") {
+  const auto dir = temp_dir();
+  std::ofstream(dir / "s.json") << scene;
+  const auto first_bytes = [](const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::string head(10, '\0');
+    in.read(head.data(), 10);
+    return head;
+  };
+  for (const std::string ext : {".exr", ".hdr", ".jpg", ".png"}) {
+    const auto out = dir / ("out" + ext);
+    const auto r = run_command(cli + " render " + (dir / "s.json").string() + " -o " + out.string());
+    REQUIRE_MESSAGE(r.exit_code == 0, r.output);
+    const std::string head = first_bytes(out);
+    if (ext == ".exr") CHECK(head.substr(0, 4) == std::string("\x76\x2f\x31\x01", 4));
+    if (ext == ".hdr") CHECK(head.substr(0, 2) == "#?");
+    if (ext == ".jpg") CHECK(head.substr(0, 3) == std::string("\xff\xd8\xff", 3));
+    if (ext == ".png") CHECK(head.substr(1, 3) == "PNG");
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("issue 21: weft-bench-btf-train --help answers without training") {
+  const auto r = run_command(std::string("timeout 20 ") + WEFT_BENCH_BTF_TRAIN + " --help");
+  CHECK(r.exit_code == 0);
+  CHECK(contains(r.output, "usage: weft-bench-btf-train"));
+  CHECK_FALSE(contains(r.output, "training on"));
+  CHECK_FALSE(contains(r.output, "loss"));
+}
+
+TEST_CASE("issue 21: the brightest light a scene may have shades finite pixels (1e38 drew black faces)") {
+  const auto dir = temp_dir();
+  std::ofstream(dir / "bright.json") << R"({"version": 1, "output": {"width": 32, "height": 24},
+    "camera": {"position": [0, 0, 3], "target": [0, 0, 0]},
+    "lights": [{"type": "directional", "direction": [0, 0, -1], "color": [100, 100, 100], "intensity": 1e7}],
+    "meshes": {"ball": {"primitive": "sphere", "radius": 0.5}},
+    "materials": {"m": {"type": "standard", "roughness": 0.05}},
+    "objects": [{"name": "ball", "mesh": "ball", "material": "m"}]})";
+  const auto out = dir / "bright.exr";
+  const auto r = run_command(cli + " render " + (dir / "bright.json").string() + " -o " + out.string());
+  REQUIRE_MESSAGE(r.exit_code == 0, r.output);
+  auto image = weft::image::load_exr(out);
+  REQUIRE(image.has_value());
+  float brightest = 0.0f;
+  bool finite = true;
+  for (float v : image->pixels) {
+    finite = finite && std::isfinite(v);
+    brightest = std::max(brightest, v);
+  }
+  CHECK(finite);
+  // The lit front of the ball saturates the half-float scene colour (65504) instead of
+  // overflowing to infinity and NaN, which drew black.
+  CHECK(brightest > 1e4f);
   std::filesystem::remove_all(dir);
 }

@@ -11,8 +11,11 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <fstream>
 #include <vector>
 #include <glm/glm.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
 import weft.core;
 import weft.image;
 import weft.scene;
@@ -402,4 +405,52 @@ TEST_CASE("cache: a second request is a memory hit; a fresh process finds the di
   CHECK(!skin::cached_lut({.width = 0}));
   ::unsetenv("WEFT_SKIN_LUT_CACHE");
   std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("cache: processes baking one key at once, a corrupt entry and an unwritable folder never give a bad LUT") {
+  const auto dir = std::filesystem::temp_directory_path() / ("weft-skin-cache-race-" + std::to_string(std::random_device{}()));
+  ::setenv("WEFT_SKIN_LUT_CACHE", dir.c_str(), 1);
+  const skin::LutParams params{.width = 24, .height = 20, .samples = 32, .threads = 1};
+  const auto file = dir / ("skin-lut-" + hex64(params.hash()) + ".exr");
+  auto expected = skin::generate_lut(params);
+  REQUIRE(expected);
+  // Four processes, each baking (or reading) the same key ten times with a cold memory cache.
+  std::vector<pid_t> children;
+  for (int c = 0; c < 4; ++c) {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      for (int i = 0; i < 10; ++i) {
+        skin::clear_lut_memory_cache();
+        if (i % 3 == 0) std::filesystem::remove(file);  // others bake again while this one reads
+        auto lut = skin::cached_lut(params);
+        if (!lut || (*lut)->texels != expected->texels) ::_exit(1);
+      }
+      ::_exit(0);
+    }
+    children.push_back(pid);
+  }
+  for (pid_t pid : children) {
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    CHECK((WIFEXITED(status) && WEXITSTATUS(status) == 0));
+  }
+  for (const auto& e : std::filesystem::directory_iterator(dir)) CHECK_MESSAGE(e.path().extension() != ".tmp", e.path());
+
+  // A torn entry (as a writer without the atomic rename could leave) is re-baked, not used.
+  REQUIRE(std::filesystem::exists(file));
+  std::filesystem::resize_file(file, std::filesystem::file_size(file) / 2);
+  skin::clear_lut_memory_cache();
+  auto repaired = skin::cached_lut(params);
+  REQUIRE(repaired);
+  CHECK((*repaired)->texels == expected->texels);
+
+  // A cache "folder" that is a file: the LUT is still made; the cache is skipped with a warning.
+  std::filesystem::remove_all(dir);
+  std::ofstream(dir) << "not a folder";
+  skin::clear_lut_memory_cache();
+  auto uncached = skin::cached_lut(params);
+  REQUIRE(uncached);
+  CHECK((*uncached)->texels == expected->texels);
+  ::unsetenv("WEFT_SKIN_LUT_CACHE");
+  std::filesystem::remove(dir);
 }

@@ -25,23 +25,6 @@ int failed(const Error& e) {
 }
 int invalid(std::string message) { return failed(Error{ErrorKind::InvalidArgument, std::move(message)}); }
 
-// "64x48" -> (64, 48).
-bool parse_size(const std::string& text, std::uint32_t& w, std::uint32_t& h) {
-  const auto x = text.find('x');
-  if (x == std::string::npos || x == 0 || x + 1 == text.size()) return false;
-  try {
-    std::size_t used = 0;
-    const unsigned long a = std::stoul(text.substr(0, x), &used);
-    if (used != x) return false;
-    const unsigned long b = std::stoul(text.substr(x + 1), &used);
-    if (used != text.size() - x - 1 || a == 0 || b == 0 || a > 4096 || b > 4096) return false;
-    w = std::uint32_t(a), h = std::uint32_t(b);
-    return true;
-  } catch (...) {
-    return false;
-  }
-}
-
 }  // namespace
 
 std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
@@ -61,7 +44,8 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
       ->capture_default_str();
   sub->add_option("--synthetic", a->synthetic, "Instead of IN: the synthetic fabric, WxH texels at 81 x 81 directions");
   sub->add_option("--weave", a->weave, "Synthetic weave: plain, twill or knit")->capture_default_str();
-  sub->add_option("--epochs", a->epochs, "Epochs (each visits every texel once; default 20, or unlimited with --minutes)");
+  sub->add_option("--epochs", a->epochs, "Epochs, at least 1 (each visits every texel once; default 20, or unlimited with --minutes)")
+      ->check(CLI::Range(1u, 1000000u));
   sub->add_option("--minutes", a->minutes, "Training time budget in minutes (0: none)");
   sub->add_option("--directions", a->directions, "Light/view pairs per texel per step (0: all, the paper's)")
       ->capture_default_str();
@@ -88,8 +72,12 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
             std::string source;
             if (!a->synthetic.empty()) {
               btf::SyntheticOptions so;
-              if (!parse_size(a->synthetic, so.width, so.height))
-                return invalid(weft::format("--synthetic '{}' is not WxH (e.g. 64x64, each 1..4096)", a->synthetic));
+              const auto size = parse_size(a->synthetic, 4096);
+              if (!size)
+                return invalid(weft::format("--synthetic '{}' is not WxH (e.g. 64x64, each side 1..4096, and the samples "
+                                            "must fit in memory: 78.7 KB per texel)",
+                                            a->synthetic));
+              so.width = size->width, so.height = size->height;
               auto weave = btf::parse_weave(a->weave);
               if (!weave) return failed(weave.error());
               so.weave = *weave;

@@ -1,6 +1,9 @@
 // weft — render scenes, inspect their graphs, bake assets, study speed against accuracy.
+#include <algorithm>
 #include <cstdio>
 #include <exception>
+#include <new>
+#include <string>
 #include <vector>
 #include "commands.h"
 import weft.core;
@@ -26,6 +29,17 @@ int main(int argc, char** argv) {
   add(weft::cli::add_bake);
   add(weft::cli::add_tradeoff);
   add(weft::cli::add_view);
+  // CLI11 answers a mistyped command with "A subcommand is required"; name the word instead.
+  const auto subcommands = app.get_subcommands({});
+  const auto names = [&](const std::string& word) {
+    return std::any_of(subcommands.begin(), subcommands.end(), [&](CLI::App* sub) { return sub->check_name(word); });
+  };
+  if (argc > 1 && argv[1][0] != '-' && !names(argv[1])) {
+    std::string known;
+    for (const CLI::App* sub : subcommands) known += (known.empty() ? "" : ", ") + sub->get_name();
+    std::fprintf(stderr, "weft: unknown command '%s' (commands: %s; weft --help describes them)\n", argv[1], known.c_str());
+    return 2;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -35,6 +49,10 @@ int main(int argc, char** argv) {
     if (sub->parsed()) {
       try {
         return run();
+      } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "weft %s: out of memory (the inputs or sizes asked for more than this machine has)\n",
+                     sub->get_name().c_str());
+        return 70;
       } catch (const std::exception& e) {
         std::fprintf(stderr, "weft %s: unexpected exception: %s\n", sub->get_name().c_str(), e.what());
         return 70;

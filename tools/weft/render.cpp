@@ -1,7 +1,9 @@
 // `weft render SCENE.json -o out.png [--quality q] [--size WxH] [--profile]` and
 // `weft graph SCENE.json [--dot out.dot] [--dump]`.
 #include <algorithm>
+#include <cctype>
 #include <chrono>
+#include <filesystem>
 #include <vector>
 #include <cstdio>
 #include <expected>
@@ -86,14 +88,42 @@ Result<renderer::RenderOptions> options_from(const Common& c) {
   if (!q) return std::unexpected(q.error());
   o.quality = *q;
   if (!c.size.empty()) {
-    unsigned w = 0, h = 0;
-    char extra = 0;
-    if (std::sscanf(c.size.c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0)
-      return fail(ErrorKind::InvalidArgument, "--size expects WxH (e.g. 1280x720), got '{}'", c.size);
-    o.width = w;
-    o.height = h;
+    const auto size = parse_size(c.size, scene::max_output_side);
+    if (!size)
+      return fail(ErrorKind::InvalidArgument, "--size expects WxH with each side 1 to {} (e.g. 1280x720), got '{}'",
+                  scene::max_output_side, c.size);
+    o.width = size->width;
+    o.height = size->height;
   }
   return o;
+}
+
+// What `-o` writes, from its extension: the tone-mapped image (.png, .jpg) or the linear
+// scene colour times the exposure (.exr, .hdr).
+enum class OutputKind { Png, Jpeg, Exr, Hdr };
+Result<OutputKind> output_kind(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+  if (ext == ".png") return OutputKind::Png;
+  if (ext == ".jpg" || ext == ".jpeg") return OutputKind::Jpeg;
+  if (ext == ".exr") return OutputKind::Exr;
+  if (ext == ".hdr") return OutputKind::Hdr;
+  return fail(ErrorKind::InvalidArgument, "-o '{}': unknown image extension '{}' (weft writes .png, .jpg, .exr and .hdr)", path,
+              ext);
+}
+
+Result<void> save_frame(const std::string& path, OutputKind kind, const renderer::Frame& frame, float exposure) {
+  switch (kind) {
+    case OutputKind::Png: return image::save_png(path, frame.image);
+    case OutputKind::Jpeg: return image::save_jpeg(path, frame.image);
+    case OutputKind::Exr:
+    case OutputKind::Hdr: {
+      image::Image linear = frame.hdr;
+      for (float& v : linear.pixels) v *= exposure;
+      return kind == OutputKind::Exr ? image::save_exr(path, linear) : image::save_hdr(path, linear);
+    }
+  }
+  return {};
 }
 }  // namespace
 
@@ -104,8 +134,10 @@ Command add_render(CLI::App& app) {
   auto profile = std::make_shared<bool>(false);
   auto exposure = std::make_shared<float>(1.0f);
   add_common(sub, *c);
-  sub->add_option("-o,--output", *output, "Output image (.png, or .exr/.hdr for linear float)")->capture_default_str();
-  sub->add_option("--exposure", *exposure, "Exposure multiplier before tone mapping")->capture_default_str();
+  sub->add_option("-o,--output", *output,
+                  "Output image: .png or .jpg (tone-mapped), .exr or .hdr (linear float scene colour times the exposure)")
+      ->capture_default_str();
+  sub->add_option("--exposure", *exposure, "Exposure multiplier before tone mapping, (0, 1e6]")->capture_default_str();
   auto frames = std::make_shared<unsigned>(1);
   sub->add_flag("--profile", *profile, "Print a per-pass timing table");
   sub->add_option("--frames", *frames, "Render this many frames; --profile then reports medians of frames 2..N")
@@ -113,7 +145,11 @@ Command add_render(CLI::App& app) {
   return [=] {
     auto options = options_from(*c);
     if (!options) return fail_with("render", options.error());
+    if (auto problem = exposure_problem(*exposure)) return fail_with("render", Error{ErrorKind::InvalidArgument, *problem});
     options->exposure = *exposure;
+    const auto kind = output_kind(*output);
+    if (!kind) return fail_with("render", kind.error());
+    options->read_hdr = *kind == OutputKind::Exr || *kind == OutputKind::Hdr;
     const auto t0 = std::chrono::steady_clock::now();
     log::info(weft::format("loading {}", c->scene_path));
     auto scene = scene::load_scene(c->scene_path);
@@ -133,7 +169,7 @@ Command add_render(CLI::App& app) {
     }
     if (!later.empty()) frame->stats = median_stats(later);
     for (const auto& w : frame->warnings) log::warn(w);
-    if (auto ok = image::save_png(*output, frame->image); !ok) return fail_with("render", ok.error());
+    if (auto ok = save_frame(*output, *kind, *frame, *exposure); !ok) return fail_with("render", ok.error());
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (*profile) {
       if (!later.empty()) std::printf("median of frames 2..%u:\n", *frames);

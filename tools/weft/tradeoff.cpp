@@ -153,13 +153,14 @@ int run(const Args& a) {
   }
   renderer::RenderOptions options;
   options.aces = false;  // clamp: decoded pixels are linear radiance (times the exposure) below 1
+  if (auto problem = exposure_problem(a.exposure)) return failed({ErrorKind::InvalidArgument, *problem});
   options.exposure = a.exposure;
   if (!a.size.empty()) {
-    unsigned w = 0, h = 0;
-    char extra = 0;
-    if (std::sscanf(a.size.c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0)
-      return failed({ErrorKind::InvalidArgument, weft::format("--size expects WxH (e.g. 640x360), got '{}'", a.size)});
-    options.width = w, options.height = h;
+    const auto size = parse_size(a.size, scene::max_output_side);
+    if (!size)
+      return failed({ErrorKind::InvalidArgument, weft::format("--size expects WxH with each side 1 to {} (e.g. 640x360), got '{}'",
+                                                              scene::max_output_side, a.size)});
+    options.width = size->width, options.height = size->height;
   }
   auto scene = scene::load_scene(a.scene_path);
   if (!scene) return failed(scene.error());

@@ -27,13 +27,12 @@ Command add_view(CLI::App& app) {
       ->check(CLI::Range(1.0, 100000.0));
   return [o] {
 #ifdef WEFT_HAVE_VIEWER
-    unsigned w = 0, h = 0;
-    char extra = 0;
-    if (std::sscanf(o->size.c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0 || w > 16384 || h > 16384) {
+    const auto size = parse_size(o->size, 16384);  // digits only: sscanf's %u read "-1" as 4294967295
+    if (!size) {
       std::fprintf(stderr, "weft view: --size expects WxH within 1..16384 (e.g. 1280x720), got '%s'\n", o->size.c_str());
       return 1;
     }
-    viewer::ViewOptions options{.scene = o->scene, .width = w, .height = h, .quality = o->quality,
+    viewer::ViewOptions options{.scene = o->scene, .width = size->width, .height = size->height, .quality = o->quality,
                                 .motion_budget_ms = o->motion_budget_ms};
     if (!o->script.empty()) options.script = o->script;
     return viewer::run(options);

@@ -320,21 +320,7 @@ Result<void> save_btf(const Btf& btf, const fs::path& file) {
   for (const auto* set : {&btf.lights, &btf.views})
     for (auto d : *set) put(header, d.theta), put(header, d.phi);
   put(header, hash_bytes(header));
-  const fs::path tmp = fs::path(file.string() + ".tmp");
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return fail(ErrorKind::Io, "cannot write '{}'", tmp.string());
-    out.write(reinterpret_cast<const char*>(header.data()), std::streamsize(header.size()));
-    out.write(reinterpret_cast<const char*>(btf.rgb.data()), std::streamsize(btf.rgb.size() * sizeof(float)));
-    if (!out) return fail(ErrorKind::Io, "writing '{}' failed (disk full?)", tmp.string());
-  }
-  std::error_code ec;
-  fs::rename(tmp, file, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    return fail(ErrorKind::Io, "cannot rename '{}' to '{}'", tmp.string(), file.string());
-  }
-  return {};
+  return write_file_atomically(file, {std::span<const std::byte>(header), std::as_bytes(std::span(btf.rgb))}, "BTF");
 }
 
 }  // namespace weft::btf

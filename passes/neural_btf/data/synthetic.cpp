@@ -15,6 +15,7 @@ module;
 #include <string>
 #include <string_view>
 #include <vector>
+#include <unistd.h>
 #include <glm/glm.hpp>
 module weft.btf;
 import weft.core;
@@ -224,6 +225,18 @@ Result<void> check(const SyntheticOptions& o) {
   if (o.lights.empty() || o.views.empty())
     return fail(ErrorKind::InvalidArgument, "synthetic BTF: {} lights and {} views (both must be at least 1)",
                 o.lights.size(), o.views.size());
+  // The samples alone (RGB floats for every texel and direction pair) must fit in half the
+  // machine's memory: 4096 x 4096 texels at 81 x 81 directions would be 1.2 TiB.
+  const double per_texel = double(o.lights.size()) * double(o.views.size()) * 3.0 * sizeof(float);
+  const double bytes = double(o.width) * double(o.height) * per_texel;
+  const double memory = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGE_SIZE));
+  if (memory > 0.0 && bytes > 0.5 * memory) {
+    const auto side = std::uint64_t(std::sqrt(0.5 * memory / per_texel));
+    return fail(ErrorKind::InvalidArgument,
+                "synthetic BTF: {} x {} texels at {} x {} directions is {:.1f} GiB of samples, more than half of this "
+                "machine's {:.1f} GiB of memory (at most about {} x {} texels)",
+                o.width, o.height, o.lights.size(), o.views.size(), bytes / 1073741824.0, memory / 1073741824.0, side, side);
+  }
   for (const auto* set : {&o.lights, &o.views})
     for (std::size_t i = 0; i < set->size(); ++i) {
       const Direction d = (*set)[i];

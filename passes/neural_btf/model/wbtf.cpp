@@ -427,12 +427,7 @@ Result<NeuralBtf> decode_wbtf(std::span<const std::byte> bytes, std::string_view
 Result<void> save_wbtf(const NeuralBtf& model, const std::filesystem::path& path, const WbtfOptions& options) {
   auto bytes = encode_wbtf(model, options);
   if (!bytes) return with_context(weft::format("writing '{}'", path.string()), bytes.error());
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) return fail(ErrorKind::Io, "cannot open '{}' for writing", path.string());
-  out.write(reinterpret_cast<const char*>(bytes->data()), std::streamsize(bytes->size()));
-  out.close();
-  if (!out) return fail(ErrorKind::Io, "writing '{}' failed", path.string());
-  return {};
+  return write_file_atomically(path, {std::span<const std::byte>(*bytes)}, "neural BTF");
 }
 
 Result<NeuralBtf> load_wbtf(const std::filesystem::path& path) {

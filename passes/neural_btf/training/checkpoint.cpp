@@ -76,18 +76,7 @@ Result<void> save_checkpoint(const std::filesystem::path& file, const TrainState
   w.floats(s.running_var);
   w.floats(s.latents);
   w.value(hash_bytes(w.bytes));
-  std::filesystem::path tmp = file;
-  tmp += ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return fail(ErrorKind::Io, "checkpoint {}: cannot open {} for writing", file.string(), tmp.string());
-    out.write(reinterpret_cast<const char*>(w.bytes.data()), std::streamsize(w.bytes.size()));
-    if (!out) return fail(ErrorKind::Io, "checkpoint {}: writing {} failed", file.string(), tmp.string());
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, file, ec);
-  if (ec) return fail(ErrorKind::Io, "checkpoint {}: rename from {} failed: {}", file.string(), tmp.string(), ec.message());
-  return {};
+  return write_file_atomically(file, {std::span<const std::byte>(w.bytes)}, "checkpoint");
 }
 
 Result<TrainState> load_checkpoint(const std::filesystem::path& file) {

@@ -140,14 +140,8 @@ Result<CachedBake> cached_bake(const scene::Scene& scene, std::span<const std::u
   if (!result.file.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);
-    // Written under a temporary name first, so a reader never sees half a file.
-    const auto partial = result.file.string() + ".partial";
-    if (auto ok = write_file(partial, result.asset); !ok) {
-      log::warn(weft::format("SSDF cache: could not write '{}': {}", partial, ok.error().message));
-    } else {
-      std::filesystem::rename(partial, result.file, ec);
-      if (ec) log::warn(weft::format("SSDF cache: could not rename '{}': {}", partial, ec.message()));
-    }
+    // write_file is atomic: a concurrent reader or writer never meets half a file.
+    if (auto ok = write_file(result.file, result.asset); !ok) log::warn(weft::format("SSDF cache: {}", ok.error().message));
   }
   return result;
 }

@@ -1,0 +1,165 @@
+// weft::write_file_atomically, the writer behind every cache and checkpoint: two processes
+// writing one path, a process killed mid-write, a full disk (a file-size limit) and a
+// folder that cannot be written never leave a mixed, half or stray file behind.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <random>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+import weft.core;
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct TempDir {
+  fs::path path = fs::temp_directory_path() / ("weft-test-files-" + std::to_string(std::random_device{}()));
+  TempDir() { fs::create_directories(path); }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  [[nodiscard]] int stray_files() const {
+    int n = 0;
+    for (const auto& e : fs::directory_iterator(path)) n += e.path().extension() == ".tmp";
+    return n;
+  }
+};
+
+std::vector<std::byte> filled(std::size_t size, unsigned char value) { return std::vector<std::byte>(size, std::byte{value}); }
+
+std::vector<std::byte> read_all(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::vector<char> chars((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::vector<std::byte> out(chars.size());
+  for (std::size_t i = 0; i < chars.size(); ++i) out[i] = std::byte(chars[i]);
+  return out;
+}
+
+// Runs `body` in a child process and returns its exit code (-signal when killed).
+template <class F>
+int in_child(F body) {
+  const pid_t pid = ::fork();
+  if (pid == 0) ::_exit(body());
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+}
+
+}  // namespace
+
+TEST_CASE("write_file_atomically writes every part, replaces the old file and leaves no temporary") {
+  TempDir dir;
+  const auto file = dir.path / "a.bin";
+  const auto head = filled(3, 1), body = filled(5, 2);
+  REQUIRE(weft::write_file_atomically(file, {std::span<const std::byte>(head), std::span<const std::byte>(body)}, "test file"));
+  auto bytes = read_all(file);
+  REQUIRE(bytes.size() == 8);
+  CHECK(bytes[2] == std::byte{1});
+  CHECK(bytes[3] == std::byte{2});
+  REQUIRE(weft::write_file_atomically(file, {std::span<const std::byte>(head)}, "test file"));
+  CHECK(read_all(file).size() == 3);
+  CHECK(dir.stray_files() == 0);
+}
+
+TEST_CASE("two processes writing one path at once: the file is always one writer's whole bytes") {
+  TempDir dir;
+  const auto file = dir.path / "shared.bin";
+  constexpr std::size_t size = 1 << 18;
+  const auto writer = [&](unsigned char value) {
+    const auto bytes = filled(size, value);
+    for (int i = 0; i < 40; ++i)
+      if (!weft::write_file_atomically(file, {std::span<const std::byte>(bytes)}, "test file")) return 1;
+    return 0;
+  };
+  const pid_t a = ::fork();
+  if (a == 0) ::_exit(writer(0xAA));
+  const pid_t b = ::fork();
+  if (b == 0) ::_exit(writer(0xBB));
+  // Meanwhile: every read sees one writer's whole file.
+  int mixed = 0, reads = 0;
+  for (int status = 0; ::waitpid(a, &status, WNOHANG) == 0 || ::waitpid(b, &status, WNOHANG) == 0;) {
+    if (!fs::exists(file)) continue;
+    const auto bytes = read_all(file);
+    ++reads;
+    if (bytes.size() != size || std::count(bytes.begin(), bytes.end(), bytes.front()) != std::ptrdiff_t(size)) ++mixed;
+  }
+  int status_a = 0, status_b = 0;
+  ::waitpid(a, &status_a, 0);
+  ::waitpid(b, &status_b, 0);
+  CHECK(mixed == 0);
+  MESSAGE(reads << " reads while two processes wrote");
+  const auto last = read_all(file);
+  REQUIRE(last.size() == size);
+  CHECK(std::count(last.begin(), last.end(), last.front()) == std::ptrdiff_t(size));
+  CHECK(dir.stray_files() == 0);
+}
+
+TEST_CASE("a process killed mid-write leaves the old file whole (and at most its own temporary)") {
+  TempDir dir;
+  const auto file = dir.path / "big.bin";
+  const auto old = filled(1000, 7);
+  REQUIRE(weft::write_file_atomically(file, {std::span<const std::byte>(old)}, "test file"));
+  for (int delay_ms : {0, 2, 10, 40}) {
+    const pid_t child = ::fork();
+    if (child == 0) {
+      const auto bytes = filled(std::size_t(64) << 20, 9);  // 64 MiB: usually still writing when killed
+      (void)weft::write_file_atomically(file, {std::span<const std::byte>(bytes)}, "test file");
+      ::_exit(0);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+    ::kill(child, SIGKILL);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    const auto now = read_all(file);
+    const bool whole_old = now == old;
+    const bool whole_new = now.size() == (std::size_t(64) << 20) && now.front() == std::byte{9} && now.back() == std::byte{9};
+    CHECK_MESSAGE((whole_old || whole_new), "after " << delay_ms << " ms: " << now.size() << " bytes");
+    for (const auto& e : fs::directory_iterator(dir.path))
+      if (e.path().extension() == ".tmp") fs::remove(e.path());
+  }
+}
+
+TEST_CASE("a full disk (a file-size limit) and an unwritable folder are errors, with nothing left behind") {
+  TempDir dir;
+  const auto file = dir.path / "limited.bin";
+  const auto old = filled(100, 3);
+  REQUIRE(weft::write_file_atomically(file, {std::span<const std::byte>(old)}, "test file"));
+  const int code = in_child([&] {
+    std::signal(SIGXFSZ, SIG_IGN);
+    const rlimit limit{4096, 4096};
+    ::setrlimit(RLIMIT_FSIZE, &limit);
+    const auto bytes = filled(1 << 20, 5);
+    auto r = weft::write_file_atomically(file, {std::span<const std::byte>(bytes)}, "test file");
+    if (r) return 1;
+    if (r.error().kind != weft::ErrorKind::Io) return 2;
+    if (r.error().message.find("cannot write test file") == std::string::npos) return 3;
+    return 0;
+  });
+  CHECK(code == 0);
+  CHECK(read_all(file) == old);
+  CHECK(dir.stray_files() == 0);
+
+  // A "folder" that is a regular file: nothing can be created inside (even as root).
+  std::ofstream(dir.path / "not-a-folder") << "x";
+  auto r = weft::write_file_atomically(dir.path / "not-a-folder" / "x.bin", {std::span<const std::byte>(old)}, "cache entry");
+  REQUIRE_FALSE(r);
+  CHECK(r.error().kind == weft::ErrorKind::Io);
+  CHECK(r.error().message.find("cannot write cache entry") != std::string::npos);
+  CHECK(r.error().message.find("Not a directory") != std::string::npos);
+}
