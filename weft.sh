@@ -61,7 +61,11 @@ case "$command_name" in
     done
     ./tools/bootstrap.sh
     cmake --preset fuzz >/dev/null
-    cmake --build --preset fuzz -j "$jobs"
+    if [ ${#only[@]} -gt 0 ]; then
+      cmake --build --preset fuzz -j "$jobs" --target "${only[@]}"
+    else
+      cmake --build --preset fuzz -j "$jobs"
+    fi
     mkdir -p build/fuzz/crashes
     status=0
     while read -r name seeds; do
