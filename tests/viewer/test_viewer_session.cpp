@@ -227,9 +227,9 @@ TEST_CASE("compare with reference: the reference setting against itself is exact
   INFO(r.output);
   REQUIRE(r.code == 0);
   std::vector<double> rmse;
-  for (std::size_t at = r.output.find("compare skin (skin): RMSE "); at != std::string::npos;
-       at = r.output.find("compare skin (skin): RMSE ", at + 1))
-    rmse.push_back(std::stod(r.output.substr(at + std::strlen("compare skin (skin): RMSE "))));
+  for (std::size_t at = r.output.find("compare skin (skin_sss): RMSE "); at != std::string::npos;
+       at = r.output.find("compare skin (skin_sss): RMSE ", at + 1))
+    rmse.push_back(std::stod(r.output.substr(at + std::strlen("compare skin (skin_sss): RMSE "))));
   REQUIRE(rmse.size() == 2);
   CHECK(rmse[0] == 0.0);  // the reference against itself
   CHECK(r.output.find("PSNR inf dB") != std::string::npos);
