@@ -358,6 +358,7 @@ struct SamplerDescriptor {
   FilterMode min_filter = FilterMode::Linear;
   FilterMode mipmap_filter = FilterMode::Linear;
   AddressMode address_mode = AddressMode::ClampToEdge;
+  std::optional<AddressMode> address_mode_v;  // v (and w) when it differs from u (glTF's wrapT)
   std::optional<CompareFunction> compare;  // set for shadow-map (comparison) samplers
   float max_lod = 32.0f;
 };

@@ -446,7 +446,8 @@ Result<Sampler> Device::create_sampler(const SamplerDescriptor& desc) {
   info.magFilter = filter(desc.mag_filter);
   info.minFilter = filter(desc.min_filter);
   info.mipmapMode = desc.mipmap_filter == FilterMode::Linear ? VK_SAMPLER_MIPMAP_MODE_LINEAR : VK_SAMPLER_MIPMAP_MODE_NEAREST;
-  info.addressModeU = info.addressModeV = info.addressModeW = address(desc.address_mode);
+  info.addressModeU = address(desc.address_mode);
+  info.addressModeV = info.addressModeW = address(desc.address_mode_v.value_or(desc.address_mode));
   info.compareEnable = desc.compare.has_value();
   info.compareOp = desc.compare ? to_vk(*desc.compare) : VK_COMPARE_OP_ALWAYS;
   info.maxLod = desc.max_lod;

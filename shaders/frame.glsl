@@ -5,6 +5,42 @@
 
 const float PI = 3.14159265358979323846;
 
+// Lights beyond the key light (weft::frame::PunctualLight): no shadows.
+const int MAX_PUNCTUAL_LIGHTS = 8;
+struct PunctualLight {
+  vec4 position_range;  // xyz, w range (0 = infinite)
+  vec4 direction_type;  // xyz travel direction, w 0 point / 1 spot / 2 directional
+  vec4 color;           // rgb * intensity
+  vec4 cone;            // spot: x scale, y offset of cos(angle to the axis)
+};
+
+// KHR_lights_punctual's falloff: what multiplies color * intensity at `p` (inverse square
+// with the recommended range window, times the spot cone), and the unit vector towards the
+// light in `l`.
+float punctual_attenuation(PunctualLight light, vec3 p, out vec3 l) {
+  int type = int(light.direction_type.w + 0.5);
+  if (type == 2) {
+    l = -light.direction_type.xyz;
+    return 1.0;
+  }
+  vec3 to_light = light.position_range.xyz - p;
+  float d2 = max(dot(to_light, to_light), 1e-8);
+  l = to_light * inversesqrt(d2);
+  float attenuation = 1.0 / d2;
+  float range = light.position_range.w;
+  if (range > 0.0) {
+    float r = d2 / (range * range);  // (d / range)^2
+    float window = clamp(1.0 - r * r, 0.0, 1.0);
+    attenuation *= window * window;
+  }
+  if (type == 1) {
+    float cd = dot(light.direction_type.xyz, -l);
+    float cone = clamp(cd * light.cone.x + light.cone.y, 0.0, 1.0);
+    attenuation *= cone * cone;
+  }
+  return attenuation;
+}
+
 struct FrameData {
   mat4 view;
   mat4 projection;
@@ -17,6 +53,8 @@ struct FrameData {
   vec4 environment;      // x intensity, y rotation (radians), z has map
   vec4 viewport;         // w, h, 1/w, 1/h
   vec4 irradiance_sh[9];
+  vec4 light_count;      // x: punctual lights used
+  PunctualLight lights[MAX_PUNCTUAL_LIGHTS];
 };
 
 #ifdef WEFT_VERTEX_INPUTS

@@ -7,10 +7,13 @@
 //   pores.png          a detail normal map with pores: one normal for all channels (left) and
 //                      per-channel blurred normals (right)
 //   ear.png            a backlit ear-like thin shell with transmittance (left) and without (right)
-//   head_*.png         the head scan (../shared/data or assets/ or --head), if present: skin and
-//                      standard front-lit, Penner and adaptive, and backlit with transmittance
+//   head_*.png         the head scan (../shared/data or assets/ or --head), if present, with its
+//                      albedo, normal and specular maps when they lie beside it: standard and skin
+//                      under a grazing light and their difference (head_difference.png, x4),
+//                      standard and skin front-lit, Penner and adaptive, backlit with transmittance
 // --check runs under the validation layer (with synchronization validation) and fails on any
 // message; ctest runs it that way at a small size.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -186,12 +189,63 @@ std::optional<fs::path> find_head(const Options& o) {
   std::vector<fs::path> candidates;
   if (!o.head.empty()) candidates.emplace_back(o.head);
   if (const char* d = std::getenv("WEFT_SHARED_DATA")) candidates.push_back(fs::path(d) / "meshes/head/head.obj");
-  for (const char* c : {"assets/meshes/head/head.obj", "../shared/data/meshes/head/head.obj",
-                        "/work/shared/data/meshes/head/head.obj"})
+  for (const char* c : {"assets/meshes/head/head.obj", "../shared/data/meshes/head/head.obj"})
     candidates.emplace_back(c);
   for (const auto& c : candidates)
     if (fs::exists(c)) return c;
   return std::nullopt;
+}
+
+struct HeadMaps {
+  fs::path albedo, normal, specular;
+  [[nodiscard]] bool found() const { return !albedo.empty(); }
+};
+
+// The scan's maps in the mesh's folder (names as the scan ships them), if all three are there.
+HeadMaps find_head_maps(const fs::path& mesh) {
+  const fs::path dir = mesh.parent_path();
+  HeadMaps m{dir / "Map-COL.jpg", dir / "Infinite-Level_02_Tangent_SmoothUV.jpg", dir / "Map-SPEC.jpg"};
+  if (fs::exists(m.albedo) && fs::exists(m.normal) && fs::exists(m.specular)) return m;
+  std::printf("the head's maps are not beside %s: the head is drawn with constant colours\n", mesh.string().c_str());
+  return {};
+}
+
+// |a - b| of two renders, per channel, times 4 so small differences show. Printed: the mean of
+// each channel of a and of b, and of |a - b|, over the object's pixels (those where a is not
+// the background, its top-left pixel's colour).
+Result<void> save_difference(const fs::path& a_path, const fs::path& b_path, const fs::path& out) {
+  auto a = image::load_png(a_path);
+  if (!a) return std::unexpected(a.error());
+  auto b = image::load_png(b_path);
+  if (!b) return std::unexpected(b.error());
+  if (a->width != b->width || a->height != b->height || a->channels != b->channels)
+    return fail(ErrorKind::InvalidArgument, "'{}' and '{}' differ in size", a_path.string(), b_path.string());
+  image::Image8 diff = *a;
+  const std::size_t channels = a->channels, pixels = std::size_t(a->width) * a->height;
+  double sum_a[3] = {0, 0, 0}, sum_b[3] = {0, 0, 0}, sum_d[3] = {0, 0, 0};
+  std::size_t object = 0;
+  for (std::size_t p = 0; p < pixels; ++p) {
+    bool background = true;
+    for (std::size_t c = 0; c < 3; ++c) background = background && a->pixels[p * channels + c] == a->pixels[c];
+    if (!background) ++object;
+    for (std::size_t c = 0; c < 3; ++c) {
+      const std::size_t i = p * channels + c;
+      const int d = std::abs(int(a->pixels[i]) - int(b->pixels[i]));
+      diff.pixels[i] = std::uint8_t(std::min(255, 4 * d));
+      if (background) continue;
+      sum_a[c] += a->pixels[i];
+      sum_b[c] += b->pixels[i];
+      sum_d[c] += d;
+    }
+  }
+  if (auto ok = image::save_png(out, diff); !ok) return ok;
+  const double n = double(std::max<std::size_t>(object, 1));
+  std::printf("wrote %s; over the %zu object pixels, mean sRGB codes: %s %.0f,%.0f,%.0f, %s %.0f,%.0f,%.0f, "
+              "|difference| %.1f,%.1f,%.1f\n",
+              out.string().c_str(), object, a_path.filename().string().c_str(), sum_a[0] / n, sum_a[1] / n, sum_a[2] / n,
+              b_path.filename().string().c_str(), sum_b[0] / n, sum_b[1] / n, sum_b[2] / n, sum_d[0] / n, sum_d[1] / n,
+              sum_d[2] / n);
+  return {};
 }
 
 Result<scene::Scene> head_scene(const Options& o, const fs::path& path, scene::Material material, vec3 light_direction,
@@ -253,7 +307,26 @@ Result<void> run(const Options& o) {
   if (auto ok = save(*r, *ear_scene, o.out / "ear.png"); !ok) return ok;
 
   if (const auto head = find_head(o)) {
-    const nlohmann::json mm = {{"mm_per_unit", kHeadMmPerUnit}};
+    // The scan's own maps beside the mesh (assets/meshes/head/, CC BY 3.0): albedo, tangent-
+    // space normals and specular intensity. Both materials take them; skin blurs the normal
+    // map per channel and scales rho_s by the specular map.
+    const HeadMaps maps = find_head_maps(*head);
+    nlohmann::json mm = {{"mm_per_unit", kHeadMmPerUnit}};
+    if (maps.found()) {
+      mm["albedo"] = {1.0, 1.0, 1.0};
+      mm["albedo_texture"] = maps.albedo.string();
+      mm["normal_texture"] = maps.normal.string();
+      mm["specular_texture"] = maps.specular.string();
+    }
+    const auto standard_head = [&](std::string name) {
+      scene::Material m = standard(std::move(name));
+      if (maps.found()) {
+        m.standard.base_color = vec3(1.0f);
+        m.standard.base_color_texture.path = maps.albedo;
+        m.standard.normal_texture.path = maps.normal;
+      }
+      return m;
+    };
     const vec3 front_left{-0.75f, -0.2f, -0.65f};
     struct Shot {
       const char* file;
@@ -265,8 +338,13 @@ Result<void> run(const Options& o) {
     nlohmann::json penner = mm, adaptive = mm, back = mm;
     penner["lut"] = {{"range", "penner"}};
     adaptive["lut"] = {{"range", "adaptive"}};
+    // A light that grazes the face from the side, nearly along it: what skin does to relief
+    // (pores, wrinkles) and to the terminator shows most there.
+    const vec3 grazing{-1.0f, -0.15f, 0.12f};
     const Shot shots[] = {
-        {"head_standard.png", standard("head standard"), front_left, {0.22f, 0.02f, 0.7f}},
+        {"head_standard_grazing.png", standard_head("head standard grazing"), grazing, {0.0f, 0.0f, 0.62f}, {0.0f, -0.02f, 0.0f}},
+        {"head_skin_grazing.png", skin("head skin grazing", adaptive), grazing, {0.0f, 0.0f, 0.62f}, {0.0f, -0.02f, 0.0f}},
+        {"head_standard.png", standard_head("head standard"), front_left, {0.22f, 0.02f, 0.7f}},
         {"head_skin.png", skin("head skin", adaptive), front_left, {0.22f, 0.02f, 0.7f}},
         {"head_penner.png", skin("head penner", penner), {-0.95f, -0.05f, -0.3f}, {0.05f, -0.02f, 0.72f}},
         {"head_adaptive.png", skin("head adaptive", adaptive), {-0.95f, -0.05f, -0.3f}, {0.05f, -0.02f, 0.72f}},
@@ -278,6 +356,10 @@ Result<void> run(const Options& o) {
       if (!s) return std::unexpected(s.error());
       if (auto ok = save(*r, *s, o.out / shot.file); !ok) return ok;
     }
+    if (auto ok = save_difference(o.out / "head_standard_grazing.png", o.out / "head_skin_grazing.png",
+                                  o.out / "head_difference.png");
+        !ok)
+      return ok;
   } else {
     std::printf("head scan not found (give --head PATH or set WEFT_SHARED_DATA): head images skipped\n");
   }

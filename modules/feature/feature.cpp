@@ -31,6 +31,7 @@ std::uint64_t mesh_content_hash(const scene::Mesh& mesh) {
   h.bytes(mesh.positions.data(), mesh.positions.size() * sizeof(vec3));
   h.bytes(mesh.normals.data(), mesh.normals.size() * sizeof(vec3));
   h.bytes(mesh.uvs.data(), mesh.uvs.size() * sizeof(vec2));
+  h.bytes(mesh.uvs1.data(), mesh.uvs1.size() * sizeof(vec2));
   h.bytes(mesh.indices.data(), mesh.indices.size() * sizeof(std::uint32_t));
   return h.digest();
 }
@@ -43,6 +44,7 @@ frame::MeshData to_mesh_data(const scene::Mesh& mesh) {
     if (i < mesh.normals.size()) v.normal = mesh.normals[i];
     if (i < mesh.tangents.size()) v.tangent = mesh.tangents[i];
     if (i < mesh.uvs.size()) v.uv = mesh.uvs[i];
+    v.uv1 = i < mesh.uvs1.size() ? mesh.uvs1[i] : v.uv;
     if (i < mesh.curvature.size()) v.curvature = mesh.curvature[i];
   }
   return out;

@@ -27,11 +27,12 @@ struct Vertex {
   float pad0 = 0.0f;
   vec4 tangent{1, 0, 0, 1};  // xyz tangent, w handedness
   vec2 uv{0, 0};
-  vec2 pad1{0, 0};
+  vec2 uv1{0, 0};  // the second UV set (glTF's TEXCOORD_1); a copy of uv when the mesh has none
 };
 static_assert(sizeof(Vertex) == 64);
 
-// The vertex buffer layout of frame::Vertex, locations 0..4.
+// The vertex buffer layout of frame::Vertex, locations 0..4. uv1 has no location here: the
+// forward pass adds location 5 for it (a layout attribute no shader reads is a warning).
 gpu::VertexBufferLayout vertex_layout();
 
 // The pipeline the passes that shade meshes into the scene's colour and depth share
@@ -68,6 +69,16 @@ struct StandardMaterial {
   float metallic = 0.0f;
   float roughness = 0.5f;
   vec3 emissive{0.0f};
+  float normal_scale = 1.0f;
+  float occlusion_strength = 1.0f;
+};
+
+// One map of a standard material: the view, its sampler and the UV set it reads. A null
+// view means none (the pass binds its neutral texture).
+struct MaterialMap {
+  const gpu::TextureView* view = nullptr;
+  const gpu::Sampler* sampler = nullptr;  // null: linear, repeat
+  std::uint32_t texcoord = 0;             // 0: uv, 1: uv1
 };
 
 // One mesh for the forward pass (standard materials); features keep their own draw lists.
@@ -76,6 +87,21 @@ struct DrawItem {
   mat4 model{1.0f};
   StandardMaterial material;
   const gpu::TextureView* base_color_texture = nullptr;  // sRGB, multiplies base_color; null = white
+  // The other maps of a standard material (glTF's metallic-roughness model); base_color's
+  // sampler and UV set are maps[0]'s. 0 base colour (sRGB; view = base_color_texture),
+  // 1 metallic-roughness (G roughness, B metallic), 2 normal (tangent space), 3 occlusion (R),
+  // 4 emissive (sRGB).
+  std::array<MaterialMap, 5> maps{};
+};
+
+// Lights beyond the key light (the first directional one, which casts the shadow map),
+// shaded by the standard material without shadows. Units as weft::scene's lights.
+inline constexpr std::uint32_t max_punctual_lights = 8;
+struct PunctualLight {
+  vec4 position_range{0.0f};    // xyz position, w range (0 = infinite)
+  vec4 direction_type{0.0f};    // xyz unit direction the light travels, w: 0 point, 1 spot, 2 directional
+  vec4 color{0.0f};             // rgb * intensity
+  vec4 cone{0.0f, 1.0f, 0.0f, 0.0f};  // spot: x = 1 / max(cos inner - cos outer, 1e-4), y = -cos outer * x
 };
 
 // std140 per-frame uniforms, bound as set 0 binding 0 by the passes that need them.
@@ -91,6 +117,8 @@ struct FrameUniforms {
   vec4 environment{1, 0, 0, 0};      // x intensity, y rotation (radians), z has map (0/1)
   vec4 viewport{1, 1, 1, 1};         // width, height, 1/width, 1/height
   std::array<vec4, 9> irradiance_sh{};  // order-2 SH of the environment's irradiance (rgb)
+  vec4 light_count{0.0f};               // x: how many of `lights` are used
+  std::array<PunctualLight, max_punctual_lights> lights{};
 };
 static_assert(sizeof(FrameUniforms) % 16 == 0);
 

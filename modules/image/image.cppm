@@ -21,6 +21,8 @@ module;
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <span>
+#include <string_view>
 #include <vector>
 export module weft.image;
 import weft.core;
@@ -80,6 +82,9 @@ struct Image8 {
 // Any 8-bit format stb_image reads (PNG, JPEG, BMP, TGA, ...), keeping the file's channels.
 // 16-bit PNGs are reduced to 8 bits.
 [[nodiscard]] Result<Image8> load_ldr(const std::filesystem::path& path);
+// Like load_ldr, from encoded bytes in memory (a glTF data URI or GLB buffer view); `label`
+// names them in errors ("glTF 'a.glb' image 2").
+[[nodiscard]] Result<Image8> decode_ldr(std::span<const std::uint8_t> bytes, std::string_view label);
 // Like load_ldr, but the file must be a PNG.
 [[nodiscard]] Result<Image8> load_png(const std::filesystem::path& path);
 [[nodiscard]] Result<void> save_png(const std::filesystem::path& path, const Image8& image);

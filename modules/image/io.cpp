@@ -93,6 +93,20 @@ Result<Image8> load_ldr(const fs::path& path) {
                 static_cast<std::uint32_t>(decoded.channels), std::move(decoded.pixels)};
 }
 
+Result<Image8> decode_ldr(std::span<const std::uint8_t> bytes, std::string_view label) {
+  if (bytes.empty()) return fail(ErrorKind::Parse, "cannot decode image {}: no bytes", label);
+  if (bytes.size() > static_cast<std::size_t>(INT_MAX)) {
+    return fail(ErrorKind::InvalidArgument, "cannot decode image {}: {} bytes is too large", label, bytes.size());
+  }
+  auto decoded = codec::decode_ldr(bytes.data(), bytes.size());
+  if (!decoded.error.empty()) {
+    return fail(decoded.unsupported ? ErrorKind::Unsupported : ErrorKind::Parse, "cannot decode image {}: {}", label,
+                decoded.error);
+  }
+  return Image8{static_cast<std::uint32_t>(decoded.width), static_cast<std::uint32_t>(decoded.height),
+                static_cast<std::uint32_t>(decoded.channels), std::move(decoded.pixels)};
+}
+
 Result<Image8> load_png(const fs::path& path) {
   auto bytes = read_bytes(path);
   if (!bytes) return std::unexpected(bytes.error());

@@ -48,7 +48,10 @@ struct Renderer::State {
   std::optional<passes::BackgroundPass> background;
   std::optional<passes::TonemapPass> tonemap;
   std::unordered_map<std::uint64_t, frame::GpuMesh> meshes;
-  std::unordered_map<std::string, std::optional<gpu::Texture>> textures;  // by path; empty = failed to load
+  // Material maps by source and colour space ("srgb:" / "linear:" + path, or a hash of
+  // embedded bytes); empty = failed to load. Samplers by their glTF settings.
+  std::unordered_map<std::string, std::optional<gpu::Texture>> textures;
+  std::vector<std::pair<scene::TextureSampler, gpu::Sampler>> samplers;
   std::uint64_t environment_key = 0;
   std::optional<gpu::Texture> environment;
   std::array<vec4, 9> environment_sh{};
@@ -87,7 +90,10 @@ struct Renderer::State {
   }
   Result<void> ensure_passes(bool key_light, Quality quality);
   Result<void> upload_scene(const scene::Scene& scene);
-  const gpu::TextureView* base_color_texture(const scene::Texture& texture, std::string_view material);
+  const gpu::TextureView* material_texture(const scene::Texture& texture, bool srgb, std::string_view material,
+                                           std::string_view slot);
+  const gpu::Sampler* material_sampler(const scene::TextureSampler& settings);
+  frame::MaterialMap material_map(const scene::Texture& texture, bool srgb, std::string_view material, std::string_view slot);
   Result<void> prepare(const scene::Scene& scene, const RenderOptions& options, std::uint32_t w, std::uint32_t h);
   Result<std::pair<RenderGraph*, TextureHandle>> build_graph(const scene::Scene& scene, const RenderOptions& options,
                                                             bool key_light);
@@ -150,22 +156,28 @@ Result<void> Renderer::State::upload_scene(const scene::Scene& scene) {
   return {};
 }
 
-// The material's base colour map as an sRGB texture, loaded once per path; a map that
-// cannot be loaded is a warning and the material is drawn with its constant colour.
-const gpu::TextureView* Renderer::State::base_color_texture(const scene::Texture& texture, std::string_view material) {
+// A material's map as a texture (sRGB-decoded for colour, linear for data), loaded once per
+// source; a map that cannot be loaded or decoded is a warning naming the material and the
+// slot, and the material is drawn as if it had none.
+const gpu::TextureView* Renderer::State::material_texture(const scene::Texture& texture, bool srgb,
+                                                          std::string_view material, std::string_view slot) {
   if (texture.empty()) return nullptr;
-  if (texture.path.empty()) {
-    warnings.push_back(weft::format("material '{}': embedded textures are not decoded yet; using its constant colour",
-                                    material));
-    return nullptr;
+  std::string key = srgb ? "srgb:" : "linear:";
+  if (!texture.path.empty()) {
+    key += texture.path.string();
+  } else {
+    Hasher h;
+    h.bytes(texture.encoded.data(), texture.encoded.size());
+    key += weft::format("embedded:{:016x}", h.digest());
   }
-  const std::string key = texture.path.string();
   auto it = textures.find(key);
   if (it == textures.end()) {
     std::optional<gpu::Texture> loaded;
-    auto pixels = image::load_ldr(texture.path);
+    auto pixels = texture.path.empty()
+                      ? image::decode_ldr(texture.encoded, texture.label.empty() ? std::string("(embedded)") : texture.label)
+                      : image::load_ldr(texture.path);
     if (!pixels) {
-      warnings.push_back(weft::format("material '{}': {}", material, pixels.error().message));
+      warnings.push_back(weft::format("material '{}' {}: {}; drawn without it", material, slot, pixels.error().message));
     } else {
       std::vector<std::uint8_t> rgba(std::size_t(pixels->width) * pixels->height * 4, 255);
       for (std::size_t i = 0; i < std::size_t(pixels->width) * pixels->height; ++i)
@@ -174,18 +186,52 @@ const gpu::TextureView* Renderer::State::base_color_texture(const scene::Texture
       if (pixels->channels < 3)
         for (std::size_t i = 0; i < std::size_t(pixels->width) * pixels->height; ++i) rgba[i * 4 + 1] = rgba[i * 4 + 2] = rgba[i * 4];
       auto t = device->create_texture({.label = key, .size = {pixels->width, pixels->height, 1},
-                                       .format = gpu::Format::RGBA8Srgb,
+                                       .format = srgb ? gpu::Format::RGBA8Srgb : gpu::Format::RGBA8Unorm,
                                        .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
       if (t && device->queue().write_texture(*t, std::as_bytes(std::span(rgba)))) {
         loaded.emplace(std::move(*t));
         ++stats.texture_uploads;
       } else {
-        warnings.push_back(weft::format("material '{}': could not upload '{}'", material, key));
+        warnings.push_back(weft::format("material '{}' {}: could not upload '{}'", material, slot, key));
       }
     }
     it = textures.emplace(key, std::move(loaded)).first;
   }
   return it->second ? &it->second->view() : nullptr;
+}
+
+const gpu::Sampler* Renderer::State::material_sampler(const scene::TextureSampler& settings) {
+  for (const auto& [s, sampler] : samplers)
+    if (s == settings) return &sampler;
+  const auto address = [](scene::TextureWrap w) {
+    return w == scene::TextureWrap::Repeat        ? gpu::AddressMode::Repeat
+           : w == scene::TextureWrap::ClampToEdge ? gpu::AddressMode::ClampToEdge
+                                                  : gpu::AddressMode::MirrorRepeat;
+  };
+  const auto filter = [](scene::TextureFilter f) {
+    return f == scene::TextureFilter::Linear ? gpu::FilterMode::Linear : gpu::FilterMode::Nearest;
+  };
+  auto sampler = device->create_sampler({.label = "material-sampler",
+                                         .mag_filter = filter(settings.mag_filter),
+                                         .min_filter = filter(settings.min_filter),
+                                         .address_mode = address(settings.wrap_u),
+                                         .address_mode_v = address(settings.wrap_v)});
+  if (!sampler) {
+    warnings.push_back(weft::format("material sampler: {}", sampler.error().message));
+    return nullptr;
+  }
+  samplers.emplace_back(settings, std::move(*sampler));
+  return &samplers.back().second;
+}
+
+frame::MaterialMap Renderer::State::material_map(const scene::Texture& texture, bool srgb, std::string_view material,
+                                                 std::string_view slot) {
+  frame::MaterialMap map;
+  map.view = material_texture(texture, srgb, material, slot);
+  if (!map.view) return map;
+  map.sampler = material_sampler(texture.sampler);
+  map.texcoord = texture.texcoord;
+  return map;
 }
 
 Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOptions& options, std::uint32_t w,
@@ -201,29 +247,63 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
     const auto& material = scene.materials.at(object.material);
     frame::DrawItem item{.mesh = mesh_table.at(object.mesh), .model = object.transform};
     const auto& s = material.standard;
-    item.material = {.base_color = s.base_color, .metallic = s.metallic, .roughness = s.roughness, .emissive = s.emissive};
+    item.material = {.base_color = s.base_color, .metallic = s.metallic, .roughness = s.roughness, .emissive = s.emissive,
+                     .normal_scale = s.normal_scale, .occlusion_strength = s.occlusion_strength};
     shadow_casters.push_back(item);
     if (material.type != scene::standard_material) {
       feature_objects[material.type].push_back(i);
       continue;
     }
-    item.base_color_texture = base_color_texture(s.base_color_texture, material.name);
-    if (!s.normal_texture.empty() || !s.metallic_roughness_texture.empty())
-      warnings.push_back(weft::format("material '{}': normal and metallic-roughness maps are not sampled yet",
-                                      material.name));
+    item.maps = {material_map(s.base_color_texture, true, material.name, "base colour map"),
+                 material_map(s.metallic_roughness_texture, false, material.name, "metallic-roughness map"),
+                 material_map(s.normal_texture, false, material.name, "normal map"),
+                 material_map(s.occlusion_texture, false, material.name, "occlusion map"),
+                 material_map(s.emissive_texture, true, material.name, "emissive map")};
+    item.base_color_texture = item.maps[0].view;
     items.push_back(item);
   }
   std::sort(warnings.begin(), warnings.end());
   warnings.erase(std::unique(warnings.begin(), warnings.end()), warnings.end());
 
+  // The first directional light is the key light (it casts the shadow map); every other
+  // light is a punctual light of the standard material, unshadowed.
   const scene::DirectionalLight* key = nullptr;
+  frame::FrameUniforms& lights_out = frame_uniforms;
+  std::uint32_t light_count = 0;
   for (const auto& light : scene.lights) {
-    if (const auto* d = std::get_if<scene::DirectionalLight>(&light)) {
-      if (!key) key = d;
-    } else {
-      warnings.push_back("point and spot lights are not shaded yet; only the first directional light is");
+    const auto* d = std::get_if<scene::DirectionalLight>(&light);
+    if (d && !key) {
+      key = d;
+      continue;
+    }
+    if (light_count == frame::max_punctual_lights) {
+      warnings.push_back(weft::format("the scene has more than {} lights besides the key light; the rest are not shaded",
+                                      frame::max_punctual_lights));
+      break;
+    }
+    frame::PunctualLight& out = lights_out.lights[light_count++];
+    out = {};
+    if (d) {
+      out.direction_type = vec4(glm::normalize(d->direction), 2.0f);
+      out.color = vec4(d->color * d->intensity, 0.0f);
+    } else if (const auto* p = std::get_if<scene::PointLight>(&light)) {
+      out.position_range = vec4(p->position, p->range);
+      out.direction_type = vec4(0.0f, -1.0f, 0.0f, 0.0f);
+      out.color = vec4(p->color * p->intensity, 0.0f);
+    } else if (const auto* sp = std::get_if<scene::SpotLight>(&light)) {
+      const float cos_outer = std::cos(glm::radians(sp->outer_cone_degrees));
+      const float cos_inner = std::cos(glm::radians(sp->inner_cone_degrees));
+      const float scale = 1.0f / std::max(cos_inner - cos_outer, 1e-4f);
+      out.position_range = vec4(sp->position, sp->range);
+      out.direction_type = vec4(glm::normalize(sp->direction), 1.0f);
+      out.color = vec4(sp->color * sp->intensity, 0.0f);
+      out.cone = vec4(scale, -cos_outer * scale, 0.0f, 0.0f);
     }
   }
+  lights_out.light_count = vec4(float(light_count), 0.0f, 0.0f, 0.0f);
+  if (light_count > 0 && !feature_objects.empty())
+    warnings.push_back("point, spot and extra directional lights are shaded by standard materials only; feature "
+                       "materials see the key light and the environment");
 
   frame::FrameUniforms& u = frame_uniforms;
   const auto& cam = scene.camera;

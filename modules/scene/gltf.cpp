@@ -292,6 +292,7 @@ class Converter {
     if (!image.image.empty()) {  // embedded: a data URI or a GLB buffer view
       t.encoded = image.image;
       t.mime_type = image.mimeType;
+      t.label = weft::format("glTF '{}' image {}{}", path_.string(), source, image.name.empty() ? "" : " '" + image.name + "'");
       return t;
     }
     if (image.uri.empty()) {
@@ -316,6 +317,69 @@ class Converter {
     return t;
   }
 
+  // A material's texture slot: the image, the UV set it reads and its sampler.
+  template <class Info>
+  Result<Texture> material_texture(const Info& info, std::string_view material, std::string_view slot) {
+    auto t = texture(info.index, material, slot);
+    if (!t || t->empty()) return t;
+    if (info.texCoord < 0) {
+      return error(ErrorKind::Parse, "material '{}' {}: texCoord {} is negative", material, slot, info.texCoord);
+    }
+    if (info.texCoord > 1) {
+      warn(weft::format("material '{}' {}: texCoord {} (weft reads TEXCOORD_0 and TEXCOORD_1); reading TEXCOORD_0",
+                        material, slot, info.texCoord));
+    } else {
+      t->texcoord = static_cast<std::uint32_t>(info.texCoord);
+    }
+    auto sampler = texture_sampler(info.index, material, slot);
+    if (!sampler) return std::unexpected(sampler.error());
+    t->sampler = *sampler;
+    return t;
+  }
+
+  // glTF's sampler of a texture (none: repeat, linear). Mipmap filters read as their base
+  // filter: weft samples level 0.
+  Result<TextureSampler> texture_sampler(int texture_index, std::string_view material, std::string_view slot) const {
+    TextureSampler out;
+    const int index = model_.textures[std::size_t(texture_index)].sampler;
+    if (index < 0) return out;
+    if (std::size_t(index) >= model_.samplers.size()) {
+      return error(ErrorKind::Parse, "material '{}' {}: texture {} uses sampler {}, but there are {} samplers", material,
+                   slot, texture_index, index, model_.samplers.size());
+    }
+    const tinygltf::Sampler& s = model_.samplers[std::size_t(index)];
+    const auto wrap = [&](int mode, std::string_view axis) -> Result<TextureWrap> {
+      switch (mode) {
+        case -1:
+        case TINYGLTF_TEXTURE_WRAP_REPEAT: return TextureWrap::Repeat;
+        case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE: return TextureWrap::ClampToEdge;
+        case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT: return TextureWrap::MirroredRepeat;
+        default: return error(ErrorKind::Parse, "sampler {} has an unknown {} {}", index, axis, mode);
+      }
+    };
+    const auto filter = [&](int mode, std::string_view which) -> Result<TextureFilter> {
+      switch (mode) {
+        case -1:
+        case TINYGLTF_TEXTURE_FILTER_LINEAR:
+        case TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_NEAREST:
+        case TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR: return TextureFilter::Linear;
+        case TINYGLTF_TEXTURE_FILTER_NEAREST:
+        case TINYGLTF_TEXTURE_FILTER_NEAREST_MIPMAP_NEAREST:
+        case TINYGLTF_TEXTURE_FILTER_NEAREST_MIPMAP_LINEAR: return TextureFilter::Nearest;
+        default: return error(ErrorKind::Parse, "sampler {} has an unknown {} {}", index, which, mode);
+      }
+    };
+    auto u = wrap(s.wrapS, "wrapS");
+    auto v = wrap(s.wrapT, "wrapT");
+    auto mag = filter(s.magFilter, "magFilter");
+    auto min = filter(s.minFilter, "minFilter");
+    for (const Error* e : {u ? nullptr : &u.error(), v ? nullptr : &v.error(), mag ? nullptr : &mag.error(),
+                           min ? nullptr : &min.error()}) {
+      if (e) return std::unexpected(*e);
+    }
+    return TextureSampler{*u, *v, *mag, *min};
+  }
+
   Result<void> convert_materials() {
     for (std::size_t i = 0; i < model_.materials.size(); ++i) {
       const tinygltf::Material& src = model_.materials[i];
@@ -335,19 +399,27 @@ class Converter {
         s.emissive = vec3(float(src.emissiveFactor[0]), float(src.emissiveFactor[1]), float(src.emissiveFactor[2]));
       }
       s.normal_scale = float(src.normalTexture.scale);
-      auto base = texture(pbr.baseColorTexture.index, m.name, "baseColorTexture");
-      auto mr = texture(pbr.metallicRoughnessTexture.index, m.name, "metallicRoughnessTexture");
-      auto normal = texture(src.normalTexture.index, m.name, "normalTexture");
-      auto emissive = texture(src.emissiveTexture.index, m.name, "emissiveTexture");
-      for (auto* r : {&base, &mr, &normal, &emissive}) {
+      s.occlusion_strength = std::clamp(float(src.occlusionTexture.strength), 0.0f, 1.0f);
+      if (const auto it = src.extensions.find("KHR_materials_emissive_strength"); it != src.extensions.end() &&
+          it->second.Has("emissiveStrength") && it->second.Get("emissiveStrength").IsNumber()) {
+        s.emissive *= float(it->second.Get("emissiveStrength").GetNumberAsDouble());
+      }
+      auto base = material_texture(pbr.baseColorTexture, m.name, "baseColorTexture");
+      auto mr = material_texture(pbr.metallicRoughnessTexture, m.name, "metallicRoughnessTexture");
+      auto normal = material_texture(src.normalTexture, m.name, "normalTexture");
+      auto occlusion = material_texture(src.occlusionTexture, m.name, "occlusionTexture");
+      auto emissive = material_texture(src.emissiveTexture, m.name, "emissiveTexture");
+      for (auto* r : {&base, &mr, &normal, &occlusion, &emissive}) {
         if (!*r) return std::unexpected(r->error());
       }
       s.base_color_texture = std::move(*base);
       s.metallic_roughness_texture = std::move(*mr);
       s.normal_texture = std::move(*normal);
+      s.occlusion_texture = std::move(*occlusion);
       s.emissive_texture = std::move(*emissive);
       const bool finite = std::isfinite(s.base_color.x + s.base_color.y + s.base_color.z + s.alpha + s.metallic +
-                                        s.roughness + s.emissive.x + s.emissive.y + s.emissive.z + s.normal_scale);
+                                        s.roughness + s.emissive.x + s.emissive.y + s.emissive.z + s.normal_scale +
+                                        s.occlusion_strength);
       if (!finite) return error(ErrorKind::Parse, "material '{}' has a non-finite factor", m.name);
       out_.materials.push_back(std::move(m));
     }
@@ -425,13 +497,15 @@ class Converter {
       if (!normals) return std::unexpected(normals.error());
       mesh.normals = std::move(*normals);
     }
-    if (const int a = attribute("TEXCOORD_0"); a >= 0) {
-      auto uvs = read_vectors<vec2>(a, what + " TEXCOORD_0", TINYGLTF_TYPE_VEC2,
+    for (auto [set, out] : {std::pair{"TEXCOORD_0", &mesh.uvs}, std::pair{"TEXCOORD_1", &mesh.uvs1}}) {
+      const int a = attribute(set);
+      if (a < 0) continue;
+      auto uvs = read_vectors<vec2>(a, what + " " + set, TINYGLTF_TYPE_VEC2,
                                     {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
                                      TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
                                     n);
       if (!uvs) return std::unexpected(uvs.error());
-      mesh.uvs = std::move(*uvs);
+      *out = std::move(*uvs);
     }
     if (const int a = attribute("TANGENT"); a >= 0 && !mesh.normals.empty()) {
       auto tangents = read_vectors<vec4>(a, what + " TANGENT", TINYGLTF_TYPE_VEC4, {TINYGLTF_COMPONENT_TYPE_FLOAT}, n);

@@ -331,10 +331,11 @@ Result<Mesh> merge_gltf(const std::filesystem::path& path) {
   Mesh merged;
   merged.name = path.stem().string();
   merged.warnings = scene->warnings;
-  bool any_uvs = false, all_normals = true, all_tangents = true;
+  bool any_uvs = false, any_uvs1 = false, all_normals = true, all_tangents = true;
   for (const Object& inst : scene->instances) {
     const Mesh& m = scene->meshes[inst.mesh];
     any_uvs = any_uvs || m.has_uvs();
+    any_uvs1 = any_uvs1 || !m.uvs1.empty();
     all_normals = all_normals && !m.normals.empty();
     all_tangents = all_tangents && !m.tangents.empty();
   }
@@ -351,6 +352,7 @@ Result<Mesh> merge_gltf(const std::filesystem::path& path) {
         merged.tangents.push_back(vec4(linear * vec3(m.tangents[i]), m.tangents[i].w * handedness));
       }
       if (any_uvs) merged.uvs.push_back(m.has_uvs() ? m.uvs[i] : vec2(0.0f));
+      if (any_uvs1) merged.uvs1.push_back(!m.uvs1.empty() ? m.uvs1[i] : vec2(0.0f));
     }
     // A mirroring transform turns the winding around; swap two corners to keep it.
     for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {

@@ -163,7 +163,9 @@ void compute_tangents(Mesh& mesh) {
     const double len = glm::length(t);
     const double scale = glm::length(tan[i]);
     vec3 tangent = len > 1e-6 * scale && len > 1e-30 && std::isfinite(len) ? vec3(t / len) : detail::any_orthogonal(nrm);
-    const float w = glm::dot(glm::dvec3(glm::cross(nrm, tangent)), bitan[i]) < 0.0 ? -1.0f : 1.0f;
+    // glTF's rule: the bitangent w * cross(n, t) points to the image's top, the normal map's
+    // +Y (green). With v = 0 the top row, that is -dP/dv.
+    const float w = glm::dot(glm::dvec3(glm::cross(nrm, tangent)), bitan[i]) > 0.0 ? -1.0f : 1.0f;
     mesh.tangents[i] = vec4(tangent, w);
   }
 }
@@ -199,6 +201,7 @@ Result<void> prepare_mesh(Mesh& mesh, const LoadOptions& options, std::string_vi
   };
   if (auto r = check_size(mesh.normals.size(), "normals"); !r) return r;
   if (auto r = check_size(mesh.uvs.size(), "UVs"); !r) return r;
+  if (auto r = check_size(mesh.uvs1.size(), "second-set UVs"); !r) return r;
   if (auto r = check_size(mesh.tangents.size(), "tangents"); !r) return r;
 
   // Repairs: each one is a warning.
@@ -220,10 +223,12 @@ Result<void> prepare_mesh(Mesh& mesh, const LoadOptions& options, std::string_vi
   }
   {
     std::size_t bad = 0;
-    for (vec2& uv : mesh.uvs) {
-      if (!finite(uv)) {
-        uv = vec2(0.0f);
-        ++bad;
+    for (auto* set : {&mesh.uvs, &mesh.uvs1}) {
+      for (vec2& uv : *set) {
+        if (!finite(uv)) {
+          uv = vec2(0.0f);
+          ++bad;
+        }
       }
     }
     if (bad > 0) warn(mesh.warnings, weft::format("{}: {} UVs were not finite; set to (0, 0)", label, bad));

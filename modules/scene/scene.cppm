@@ -68,9 +68,11 @@ struct Mesh {
   std::vector<vec3> positions;
   std::vector<vec3> normals;    // unit length
   std::vector<vec4> tangents;   // xyz unit and orthogonal to the normal; w = +-1 handedness:
-                                // bitangent = w * cross(normal, tangent.xyz) (glTF's rule)
+                                // bitangent = w * cross(normal, tangent.xyz) (glTF's rule);
+                                // tangent along +u, bitangent towards the image's top (-v)
   std::vector<vec2> uvs;        // empty when the source had none; v = 0 is the image's top
                                 // row (glTF's convention; OBJ's v is flipped on load)
+  std::vector<vec2> uvs1;       // a second UV set (glTF's TEXCOORD_1), same convention; usually empty
   std::vector<std::uint32_t> indices;  // triangle list
   // Skin curvature (d'Eon & Luebke's |dn|/|dp|): per vertex, the mean over its edges of
   // |n_i - n_j| / |p_i - p_j|. 1/r on a sphere of radius r; >= 0; in 1/length units.
@@ -236,12 +238,27 @@ inline constexpr std::string_view standard_material = "standard";
 // "standard, shell_fur (fur), skin_sss (skin)" — what an unknown type's error lists.
 [[nodiscard]] std::string known_material_types();
 
+// How a texture is sampled (glTF's sampler): wrap per axis and filters. Defaults are glTF's
+// when a texture names no sampler: repeat, linear.
+enum class TextureWrap : std::uint8_t { Repeat, ClampToEdge, MirroredRepeat };
+enum class TextureFilter : std::uint8_t { Linear, Nearest };
+struct TextureSampler {
+  TextureWrap wrap_u = TextureWrap::Repeat;
+  TextureWrap wrap_v = TextureWrap::Repeat;
+  TextureFilter mag_filter = TextureFilter::Linear;
+  TextureFilter min_filter = TextureFilter::Linear;
+  bool operator==(const TextureSampler&) const = default;
+};
+
 // An image a material samples, decoded later by weft.image: a file, or (glTF data URIs and
 // GLB buffer views) the encoded bytes themselves.
 struct Texture {
   std::filesystem::path path;         // absolute or relative to the working folder; may be empty
   std::vector<std::uint8_t> encoded;  // PNG/JPEG bytes when embedded
   std::string mime_type;              // "image/png", "image/jpeg" or empty
+  std::string label;                  // where embedded bytes came from, for messages ("glTF 'a.glb' image 2")
+  std::uint32_t texcoord = 0;         // the UV set it reads: 0 = Mesh::uvs, 1 = Mesh::uvs1
+  TextureSampler sampler;
   [[nodiscard]] bool empty() const { return path.empty() && encoded.empty(); }
 };
 
@@ -253,8 +270,10 @@ struct StandardMaterial {
   float metallic = 0.0f;
   float roughness = 0.5f;
   Texture metallic_roughness_texture;  // linear: G = roughness, B = metallic (multiplies)
-  Texture normal_texture;              // tangent space, linear
+  Texture normal_texture;              // tangent space, linear; +Y (green) towards the image's top
   float normal_scale = 1.0f;
+  Texture occlusion_texture;           // linear, R = ambient occlusion (dims image-based light only)
+  float occlusion_strength = 1.0f;
   vec3 emissive{0.0f};                 // emitted radiance
   Texture emissive_texture;            // sRGB; multiplies emissive
 };
@@ -301,9 +320,12 @@ struct GltfScene {
 };
 // The default scene (or the first; or every root node when the file has no scenes).
 // Triangle lists, strips and fans are read (points and lines are skipped with a warning);
-// indices u8/u16/u32; POSITION, NORMAL, TEXCOORD_0 (float or normalised u8/u16), TANGENT.
-// Every mesh goes through prepare_mesh. Texture files are only checked for existence
-// (missing: a warning naming the material and the path). Errors name the file: Parse for
+// indices u8/u16/u32; POSITION, NORMAL, TEXCOORD_0 and TEXCOORD_1 (float or normalised
+// u8/u16), TANGENT. Every mesh goes through prepare_mesh. Materials keep all five
+// metallic-roughness textures with their samplers and texCoord sets (0 or 1; a higher set is
+// a warning and reads set 0); embedded images (data URIs, GLB buffer views) are kept as
+// bytes, external ones are only checked for existence (missing: a warning naming the
+// material and the path). Errors name the file: Parse for
 // malformed JSON/GLB, out-of-range indices or accessors outside their buffers; Unsupported
 // for sparse accessors, Draco and other required extensions.
 [[nodiscard]] Result<GltfScene> load_gltf(const std::filesystem::path& path, const LoadOptions& options = {});

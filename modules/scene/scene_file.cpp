@@ -193,6 +193,8 @@ Material read_material(JsonReader& r, const std::string& name) {
   s.metallic_roughness_texture.path = r.path("metallic_roughness_texture");
   s.normal_texture.path = r.path("normal_texture");
   s.normal_scale = float(r.number("normal_scale", s.normal_scale, finite));
+  s.occlusion_texture.path = r.path("occlusion_texture");
+  s.occlusion_strength = float(r.number("occlusion_strength", s.occlusion_strength, unit));
   s.emissive = r.vec3_of("emissive", s.emissive, non_negative);
   s.emissive_texture.path = r.path("emissive_texture");
   r.finish();

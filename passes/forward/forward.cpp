@@ -1,8 +1,11 @@
 module;
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <expected>
 #include <memory>
 #include <span>
+#include <utility>
 #include <vector>
 #include "weft_pass_forward_shaders.h"
 module weft.base_pass.forward;
@@ -16,7 +19,8 @@ namespace weft::passes {
 struct ForwardPass::State {
   gpu::BindGroupLayout bind_layout;
   gpu::BindGroupLayout material_layout;
-  gpu::Texture white;  // the base colour map of materials without one
+  gpu::Texture white;        // the base colour, metallic-roughness, occlusion and emissive map of materials without one
+  gpu::Texture flat_normal;  // (0.5, 0.5, 1): the normal map of materials without one (never sampled: maps.w = 0)
   gpu::PipelineLayout layout;
   gpu::RenderPipeline pipeline;
   gpu::Sampler shadow_sampler;
@@ -29,7 +33,17 @@ struct DrawConstants {
   mat4 model;
   vec4 base_color_metallic;
   vec4 roughness_emissive;
+  vec4 maps;  // normal scale, occlusion strength, uv1 bits, has a normal map
 };
+static_assert(sizeof(DrawConstants) <= 128);
+
+Result<gpu::Texture> one_texel(gpu::Device& device, const char* label, std::array<std::uint8_t, 4> texel) {
+  auto t = device.create_texture({.label = label, .size = {1, 1, 1}, .format = gpu::Format::RGBA8Unorm,
+                                  .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
+  if (!t) return t;
+  if (auto ok = device.queue().write_texture(*t, std::as_bytes(std::span(texel))); !ok) return std::unexpected(ok.error());
+  return t;
+}
 }  // namespace
 
 Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
@@ -44,20 +58,27 @@ Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
                    {2, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}});
   if (!bind_layout) return std::unexpected(bind_layout.error());
   auto material_layout = device.create_bind_group_layout(
-      {.label = "forward-material", .entries = {{0, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}});
+      {.label = "forward-material",
+       .entries = {{0, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
+                   {1, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
+                   {2, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
+                   {3, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
+                   {4, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}});
   if (!material_layout) return std::unexpected(material_layout.error());
-  auto white = device.create_texture({.label = "white", .size = {1, 1, 1}, .format = gpu::Format::RGBA8Unorm,
-                                      .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
+  auto white = one_texel(device, "white", {255, 255, 255, 255});
   if (!white) return std::unexpected(white.error());
-  const std::uint8_t white_texel[4] = {255, 255, 255, 255};
-  if (auto ok = device.queue().write_texture(*white, std::as_bytes(std::span(white_texel))); !ok)
-    return std::unexpected(ok.error());
+  auto flat_normal = one_texel(device, "flat-normal", {128, 128, 255, 255});
+  if (!flat_normal) return std::unexpected(flat_normal.error());
   auto layout = device.create_pipeline_layout({.label = "forward",
                                                .bind_group_layouts = {&*bind_layout, &*material_layout},
                                                .push_constant_size = sizeof(DrawConstants)});
   if (!layout) return std::unexpected(layout.error());
+  // weft's vertex layout plus the second UV set at location 5, which only this pass reads (an
+  // attribute a shader does not consume is a validation warning, so the others go without).
+  gpu::VertexBufferLayout vertices = frame::vertex_layout();
+  vertices.attributes.push_back({gpu::VertexFormat::Float32x2, offsetof(frame::Vertex, uv1), 5});
   auto pipeline = frame::create_lit_mesh_pipeline(device, "forward", *layout, *vs, *fs, scene_color_format,
-                                                  scene_depth_format);
+                                                  scene_depth_format, std::move(vertices));
   if (!pipeline) return std::unexpected(pipeline.error());
   auto shadow_sampler = frame::create_shadow_compare_sampler(device, "shadow-compare");
   if (!shadow_sampler) return std::unexpected(shadow_sampler.error());
@@ -67,7 +88,7 @@ Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
   if (!material_sampler) return std::unexpected(material_sampler.error());
   ForwardPass pass;
   pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*material_layout), std::move(*white),
-                                              std::move(*layout), std::move(*pipeline),
+                                              std::move(*flat_normal), std::move(*layout), std::move(*pipeline),
                                               std::move(*shadow_sampler), std::move(*environment_sampler),
                                               std::move(*material_sampler)});
   return pass;
@@ -89,28 +110,40 @@ Result<void> ForwardPass::add(RenderGraph& graph, std::span<const frame::DrawIte
         gpu::RenderPassEncoder& pass = draw.pass;
         pass.set_pipeline(state->pipeline);
         pass.set_bind_group(0, frame_group);
-        // One material bind group per distinct base colour map (textures are imported
-        // read-only assets, already in ShaderRead state).
-        std::vector<std::pair<const gpu::TextureView*, const gpu::BindGroup*>> material_groups;
-        auto material_group = [&](const gpu::TextureView* view) -> const gpu::BindGroup* {
-          if (!view) view = &state->white.view();
-          for (auto& [v, g] : material_groups)
-            if (v == view) return g;
-          auto g = ctx.device().create_bind_group({.label = "forward-material", .layout = &state->material_layout,
-                                                   .entries = {gpu::bind(0, *view, &state->material_sampler)}});
+        // One material bind group per distinct set of maps and samplers (textures are
+        // imported read-only assets, already in ShaderRead state).
+        using MapKey = std::array<std::pair<const gpu::TextureView*, const gpu::Sampler*>, 5>;
+        std::vector<std::pair<MapKey, const gpu::BindGroup*>> material_groups;
+        auto material_group = [&](const frame::DrawItem& item) -> const gpu::BindGroup* {
+          MapKey key;
+          for (std::size_t i = 0; i < key.size(); ++i) {
+            const gpu::TextureView* view = i == 0 ? item.base_color_texture : item.maps[i].view;
+            if (!view) view = i == 2 ? &state->flat_normal.view() : &state->white.view();
+            key[i] = {view, item.maps[i].sampler ? item.maps[i].sampler : &state->material_sampler};
+          }
+          for (auto& [k, g] : material_groups)
+            if (k == key) return g;
+          std::vector<gpu::BindGroupEntry> entries;
+          for (std::uint32_t i = 0; i < key.size(); ++i) entries.push_back(gpu::bind(i, *key[i].first, key[i].second));
+          auto g = ctx.device().create_bind_group(
+              {.label = "forward-material", .layout = &state->material_layout, .entries = std::move(entries)});
           if (!g) {
             ctx.encoder().report_error(g.error());
             return nullptr;
           }
-          material_groups.emplace_back(view, &ctx.keep(std::move(*g)));
+          material_groups.emplace_back(key, &ctx.keep(std::move(*g)));
           return material_groups.back().second;
         };
         for (const auto& item : items) {
-          const auto* item_group = material_group(item.base_color_texture);
+          const auto* item_group = material_group(item);
           if (!item_group) break;
           pass.set_bind_group(1, *item_group);
           const auto& m = item.material;
-          pass.push(DrawConstants{item.model, vec4(m.base_color, m.metallic), vec4(m.roughness, m.emissive)});
+          std::uint32_t uv1_bits = 0;
+          for (std::uint32_t i = 0; i < item.maps.size(); ++i) uv1_bits |= (item.maps[i].texcoord == 1 ? 1u : 0u) << i;
+          pass.push(DrawConstants{item.model, vec4(m.base_color, m.metallic), vec4(m.roughness, m.emissive),
+                                  vec4(m.normal_scale, m.occlusion_strength, float(uv1_bits),
+                                       item.maps[2].view ? 1.0f : 0.0f)});
           pass.set_vertex_buffer(0, item.mesh->vertices);
           pass.set_index_buffer(item.mesh->indices);
           pass.draw_indexed(item.mesh->index_count);

@@ -89,7 +89,8 @@ void main() {
   } else {  // no usable tangent: any perpendicular keeps the frame orthonormal
     t = normalize(abs(n.x) < 0.9 ? cross(n, vec3(1, 0, 0)) : cross(n, vec3(0, 1, 0)));
   }
-  vec3 b = cross(n, t) * (world_tangent.w < 0.0 ? -1.0 : 1.0);  // follows the UVs' handedness
+  // Along +v, the BTF's texel rows (the mesh's bitangent w * cross(n, t) points to -v, glTF's rule).
+  vec3 b = -cross(n, t) * (world_tangent.w < 0.0 ? -1.0 : 1.0);
 
   vec3 v = normalize(frame.camera_position.xyz - world_position);
   vec3 l = normalize(frame.light_direction.xyz);

@@ -49,7 +49,9 @@ float fur_shadow(vec3 p, vec3 n) {
 vec3 hair_tangent(vec3 n, vec4 tangent, vec2 st) {
   vec3 t = tangent.xyz - n * dot(n, tangent.xyz);
   t = dot(t, t) > 1e-12 ? normalize(t) : (abs(n.x) < 0.9 ? normalize(cross(n, vec3(1, 0, 0))) : normalize(cross(n, vec3(0, 1, 0))));
-  vec3 b = cross(n, t) * (tangent.w < 0.0 ? -1.0 : 1.0);  // along +v
+  // Along +v (down the photo, as its orientation is measured): the mesh's bitangent
+  // w * cross(n, t) points to -v, the image's top (glTF's rule).
+  vec3 b = -cross(n, t) * (tangent.w < 0.0 ? -1.0 : 1.0);
   vec2 d;
   if (dot(draw.hair.xy, draw.hair.xy) > 0.0) {
     d = normalize(draw.hair.xy);

@@ -86,7 +86,8 @@ class SkinFeature final : public FeaturePass {
       if (slot->second == ~0u) continue;
       const scene::Mesh& mesh = frame.scene.meshes.at(object.mesh);
       const auto& params = frame_materials_[slot->second]->params;
-      if (!mesh.has_uvs() && (!params.albedo_texture.empty() || !params.normal_texture.empty()))
+      if (!mesh.has_uvs() &&
+          (!params.albedo_texture.empty() || !params.normal_texture.empty() || !params.specular_texture.empty()))
         warnings_.push_back(weft::format("skin object '{}': mesh '{}' has no UVs, so its textures sample one texel",
                                          object.name, mesh.name));
       draws_.push_back({frame.meshes[object.mesh], object.transform, slot->second});
@@ -138,8 +139,10 @@ class SkinFeature final : public FeaturePass {
     if (!albedo) return with_context(weft::format("skin material '{}' albedo_texture", material.name), albedo.error());
     auto normal = texture_for(parsed->normal_texture, gpu::Format::RGBA8Unorm);
     if (!normal) return with_context(weft::format("skin material '{}' normal_texture", material.name), normal.error());
+    auto specular = texture_for(parsed->specular_texture, gpu::Format::RGBA8Unorm);
+    if (!specular) return with_context(weft::format("skin material '{}' specular_texture", material.name), specular.error());
     auto gpu_material = pass_.create_material(*device_, *parsed, *lut_textures_.at(lut_key), *albedo ? **albedo : white_,
-                                              *normal ? **normal : flat_normal_);
+                                              *normal ? **normal : flat_normal_, *specular ? **specular : white_);
     if (!gpu_material) return std::unexpected(gpu_material.error());
     materials_.emplace(key, *gpu_material);
     return *gpu_material;

@@ -86,6 +86,7 @@ Result<SkinMaterial> parse_skin_material(const scene::Material& material, Qualit
       m.albedo = r.vec3_of("albedo", m.albedo, unit);
       m.albedo_texture = r.path("albedo_texture");
       m.normal_texture = r.path("normal_texture");
+      m.specular_texture = r.path("specular_texture");
       m.normal_strength = float(r.number("normal_strength", m.normal_strength, {.min = 0, .max = 10}));
       m.normal_blur = r.vec3_of("normal_blur", m.normal_blur, unit);
       m.roughness = float(r.number("roughness", m.roughness, {.min = 0, .max = 1, .min_exclusive = true}));

@@ -44,7 +44,8 @@ struct SkinConstants {
 };
 static_assert(sizeof(SkinConstants) == 128);
 
-enum : int { flag_albedo_map = 1, flag_normal_map = 2, flag_screen_curvature = 4, flag_reference = 8 };
+enum : int { flag_albedo_map = 1, flag_normal_map = 2, flag_screen_curvature = 4, flag_reference = 8, flag_specular_map = 16 };
+constexpr int debug_view_shift = 32;  // transmit.z = flags + 32 * debug view (skin_common.glsl)
 }  // namespace
 
 struct SkinSSSPass::State {
@@ -76,7 +77,8 @@ Result<SkinSSSPass> SkinSSSPass::create(gpu::Device& device) {
            device.create_bind_group_layout({.label = "skin-material",
                                             .entries = {{0, BindingType::TextureSampler, ShaderStage::Fragment},
                                                         {1, BindingType::TextureSampler, ShaderStage::Fragment},
-                                                        {2, BindingType::TextureSampler, ShaderStage::Fragment}}}));
+                                                        {2, BindingType::TextureSampler, ShaderStage::Fragment},
+                                                        {3, BindingType::TextureSampler, ShaderStage::Fragment}}}));
   WEFT_TRY(auto reference_layout,
            device.create_bind_group_layout(
                {.label = "skin-reference", .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Vertex}}}));
@@ -106,16 +108,19 @@ Result<SkinSSSPass> SkinSSSPass::create(gpu::Device& device) {
 
 Result<std::shared_ptr<SkinGpuMaterial>> SkinSSSPass::create_material(gpu::Device& device, const skin::SkinMaterial& material,
                                                                       const gpu::Texture& lut, const gpu::Texture& albedo,
-                                                                      const gpu::Texture& normal) const {
+                                                                      const gpu::Texture& normal,
+                                                                      const gpu::Texture& specular) const {
   auto group = device.create_bind_group({.label = "skin-material",
                                          .layout = &state_->material_layout,
                                          .entries = {gpu::bind(0, lut.view(), &state_->lut),
                                                      gpu::bind(1, albedo.view(), &state_->texture),
-                                                     gpu::bind(2, normal.view(), &state_->texture)}});
+                                                     gpu::bind(2, normal.view(), &state_->texture),
+                                                     gpu::bind(3, specular.view(), &state_->texture)}});
   if (!group) return std::unexpected(group.error());
   auto out = std::make_shared<SkinGpuMaterial>(SkinGpuMaterial{material, std::move(*group), 0});
   if (!material.albedo_texture.empty()) out->flags |= flag_albedo_map;
   if (!material.normal_texture.empty()) out->flags |= flag_normal_map;
+  if (!material.specular_texture.empty()) out->flags |= flag_specular_map;
   if (material.curvature == skin::CurvatureSource::Screen) out->flags |= flag_screen_curvature;
   return out;
 }
@@ -174,7 +179,7 @@ Result<void> SkinSSSPass::add(RenderGraph& graph, std::span<const SkinDraw> draw
       c.params = vec4(m.roughness, scale > 0.0f && std::isfinite(scale) ? 1.0f / scale : 0.0f, to_lut, m.mm_per_unit);
       c.normal_blur = vec4(m.normal_blur, m.normal_strength);
       c.transmit = vec4(m.transmittance ? m.transmittance_scale : 0.0f, m.transmittance_shrink_mm / m.mm_per_unit,
-                        float(flags + 16 * int(m.debug_view)), m.shadow_scatter_mm / m.mm_per_unit);
+                        float(flags + debug_view_shift * int(m.debug_view)), m.shadow_scatter_mm / m.mm_per_unit);
       pass.set_bind_group(1, mat.group);
       pass.push(c);
       pass.set_vertex_buffer(0, draw.mesh->vertices);

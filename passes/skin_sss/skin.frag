@@ -91,8 +91,8 @@ float fresnel(float v_dot_h, float f0) {
 
 void main() {
   int packed = int(draw.transmit.z + 0.5);
-  int flags = packed & 15;
-  int debug_view = packed >> 4;
+  int flags = packed & 31;
+  int debug_view = packed >> 5;
 
   vec3 ng = normalize(world_normal);
   vec3 v = normalize(frame.camera_position.xyz - world_position);
@@ -167,7 +167,9 @@ void main() {
     if (hh > 1e-12) {
       vec3 hn = h * inversesqrt(hh);
       float p = pow(2.0 * texture(skin_lut, lut_uv(vec2(dot(nd, hn), draw.params.x))).a, 10.0);
-      specular = ndl * draw.albedo_specular.a * max(p * fresnel(dot(v, hn), F0_SKIN) / hh, 0.0) / PI * shadow;
+      float rho_s = draw.albedo_specular.a;
+      if ((flags & FLAG_SPECULAR_MAP) != 0) rho_s *= texture(specular_map, uv).r;
+      specular = ndl * rho_s * max(p * fresnel(dot(v, hn), F0_SKIN) / hh, 0.0) / PI * shadow;
     }
   }
 

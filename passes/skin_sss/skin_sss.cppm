@@ -215,7 +215,8 @@ std::string_view to_string(DebugView d);
 struct SkinMaterial {
   vec3 albedo{0.84f, 0.6f, 0.5f};        // linear RGB diffuse albedo
   std::filesystem::path albedo_texture;  // sRGB; multiplies albedo
-  std::filesystem::path normal_texture;  // tangent space detail normals
+  std::filesystem::path normal_texture;  // tangent space detail normals (+Y towards the image's top)
+  std::filesystem::path specular_texture;  // grey, linear: multiplies `specular` (ρ_s) per texel
   float normal_strength = 1.0f;
   // How much of the geometric (blurred) normal each channel uses instead of the detail
   // normal: red scatters furthest, so it sees the smoothest surface.
@@ -283,7 +284,7 @@ class SkinSSSPass {
   // Textures must outlive the material (the feature owns them).
   Result<std::shared_ptr<SkinGpuMaterial>> create_material(gpu::Device& device, const skin::SkinMaterial& material,
                                                            const gpu::Texture& lut, const gpu::Texture& albedo,
-                                                           const gpu::Texture& normal) const;
+                                                           const gpu::Texture& normal, const gpu::Texture& specular) const;
   // `draws` and `materials` must outlive the graph's execution; `luts` are the LUT
   // textures the materials sample (imported and declared as reads).
   Result<void> add(RenderGraph& graph, std::span<const SkinDraw> draws,

@@ -220,6 +220,26 @@ TEST_CASE("PNG round trip is exact for 1 to 4 channels") {
   CHECK(dir.tmp_files() == 0);
 }
 
+TEST_CASE("decode_ldr reads encoded bytes in memory as load_ldr reads the file; bad bytes name the label") {
+  TempDir dir;
+  const Image8 img = pattern8(6, 3, 3);
+  const fs::path p = dir / "bytes.png";
+  REQUIRE(weft::image::save_png(p, img));
+  const auto bytes = read_all(p);
+  const auto decoded = weft::image::decode_ldr(bytes, "glTF 'a.glb' image 2");
+  REQUIRE(decoded);
+  CHECK(decoded->width == 6);
+  CHECK(decoded->height == 3);
+  CHECK(decoded->pixels == img.pixels);
+  const std::vector<std::uint8_t> garbage = {1, 2, 3, 4, 5};
+  for (const auto& bad : {garbage, std::vector<std::uint8_t>{}, std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + 40)}) {
+    const auto refused = weft::image::decode_ldr(bad, "glTF 'a.glb' image 2");
+    REQUIRE_FALSE(refused);
+    CHECK(refused.error().kind == weft::ErrorKind::Parse);
+    CHECK_MESSAGE(refused.error().message.find("glTF 'a.glb' image 2") != std::string::npos, refused.error().message);
+  }
+}
+
 TEST_CASE("Radiance HDR round trip stays within RGBE precision") {
   TempDir dir;
   // Values over nine decades, different per channel.

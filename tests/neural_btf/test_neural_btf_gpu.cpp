@@ -110,7 +110,7 @@ PixelInputs pixel_inputs(const scene::Scene& s, std::uint32_t x, std::uint32_t y
   const vec4 tangent = s.meshes[0].tangents[0];
   vec3 t = rotate * vec3(tangent);
   t = glm::normalize(t - n * glm::dot(n, t));
-  const vec3 bt = glm::cross(n, t) * (tangent.w < 0.0f ? -1.0f : 1.0f);
+  const vec3 bt = -glm::cross(n, t) * (tangent.w < 0.0f ? -1.0f : 1.0f);  // along +v, as the shader
   const vec3 v = glm::normalize(s.camera.position - p);
   in.view = vec3(glm::dot(v, t), glm::dot(v, bt), glm::dot(v, n));
   in.light = vec3(glm::dot(towards_light, t), glm::dot(towards_light, bt), glm::dot(towards_light, n));

@@ -14,27 +14,14 @@ import weft.image;
 import weft.scene;
 import weft.renderer;
 import weft.test.gpu;
+#include "renderer_support.h"
 
 using namespace weft;
 
 namespace {
-scene::Scene load(const std::string& json, const std::filesystem::path& base = std::filesystem::temp_directory_path()) {
-  auto desc = scene::parse_scene(json, base);
-  REQUIRE_MESSAGE(desc, (desc ? "" : desc.error().message));
-  auto s = scene::load_scene(*desc);
-  REQUIRE_MESSAGE(s, (s ? "" : s.error().message));
-  return std::move(*s);
-}
-
-renderer::Renderer& shared_renderer() {
-  static auto r = renderer::Renderer::create(weft::test::gpu().device);
-  REQUIRE(r);
-  return *r;
-}
-
-int channel(const image::Image8& img, std::uint32_t x, std::uint32_t y, int c = 0) {
-  return img.pixels[(std::size_t(y) * img.width + x) * img.channels + c];
-}
+using weft::test::load;
+using weft::test::shared_renderer;
+using weft::test::channel;
 
 const char* furnace = R"({
   "version": 1,

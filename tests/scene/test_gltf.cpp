@@ -12,6 +12,8 @@
 
 #include <glm/glm.hpp>
 
+#include <nlohmann/json.hpp>
+
 #include "support.h"
 
 import weft.core;
@@ -46,7 +48,8 @@ void check_quad_scene(const sc::GltfScene& s) {
   for (std::size_t i = 0; i < 4; ++i) {
     CHECK(near3(quad.normals[i], {0, 0, 1}));
     CHECK(near3(vec3(quad.tangents[i]), {1, 0, 0}));  // u along +X
-    CHECK(quad.tangents[i].w == 1.0f);                // v along +Y = cross(n, t)
+    // v grows along +Y = cross(n, t), so the image's top (v = 0) is at the bottom: mirrored.
+    CHECK(quad.tangents[i].w == -1.0f);
   }
 
   REQUIRE(s.instances.size() == 2);
@@ -148,6 +151,123 @@ TEST_CASE("glTF: a missing texture file is a warning naming the material and the
   CHECK(again->warnings.empty());
   CHECK(again->materials[0].standard.base_color_texture.path == dir / "textures" / "missing file.png");
   CHECK(again->materials[0].standard.base_color_texture.mime_type == "image/png");
+}
+
+namespace {
+// support.h's glTF with every texture slot of material "red" filled from image 0 (a data
+// URI), changed by `edit` before it is written.
+template <class Edit>
+std::string full_material_gltf(Edit edit) {
+  nlohmann::json doc = nlohmann::json::parse(gltf_json());
+  doc["images"] = nlohmann::json::array({{{"uri", "data:image/png;base64,iVBORw0KGgo="}, {"name", "tiny"}}});
+  doc["samplers"] = nlohmann::json::array({{{"wrapS", 33071}, {"wrapT", 33648}, {"magFilter", 9728}, {"minFilter", 9986}}});
+  doc["textures"] = nlohmann::json::array({{{"source", 0}}, {{"source", 0}, {"sampler", 0}}});
+  auto& m = doc["materials"][0];
+  m["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+  m["pbrMetallicRoughness"]["metallicRoughnessTexture"] = {{"index", 1}, {"texCoord", 1}};
+  m["normalTexture"] = {{"index", 0}, {"scale", 0.5}};
+  m["occlusionTexture"] = {{"index", 1}, {"strength", 0.25}};
+  m["emissiveTexture"] = {{"index", 0}};
+  m["extensions"] = {{"KHR_materials_emissive_strength", {{"emissiveStrength", 4.0}}}};
+  // TEXCOORD_1: the quad's UVs again (accessor 2).
+  doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"] = 2;
+  edit(doc);
+  return doc.dump();
+}
+}  // namespace
+
+TEST_CASE("glTF: the metallic-roughness material's five textures, their samplers, UV sets and factors") {
+  TempDir dir;
+  write_file(dir / "full.gltf", full_material_gltf([](nlohmann::json&) {}));
+  auto s = sc::load_gltf(dir / "full.gltf");
+  REQUIRE_MESSAGE(s.has_value(), s.error().what());
+  const sc::StandardMaterial& m = s->materials[0].standard;
+  for (const sc::Texture* t : {&m.base_color_texture, &m.metallic_roughness_texture, &m.normal_texture,
+                               &m.occlusion_texture, &m.emissive_texture}) {
+    CHECK_FALSE(t->empty());
+    CHECK(t->path.empty());  // embedded: the bytes travel, decoded by the renderer
+    CHECK(t->encoded.size() == 8);  // the PNG signature
+    CHECK(contains(t->label, "image 0 'tiny'"));
+  }
+  CHECK(m.base_color_texture.texcoord == 0);
+  CHECK(m.metallic_roughness_texture.texcoord == 1);
+  CHECK(m.base_color_texture.sampler == sc::TextureSampler{});  // no sampler: repeat, linear
+  const sc::TextureSampler clamped{sc::TextureWrap::ClampToEdge, sc::TextureWrap::MirroredRepeat, sc::TextureFilter::Nearest,
+                                   sc::TextureFilter::Nearest};
+  CHECK(m.metallic_roughness_texture.sampler == clamped);
+  CHECK(m.occlusion_texture.sampler == clamped);
+  CHECK(m.normal_scale == doctest::Approx(0.5f));
+  CHECK(m.occlusion_strength == doctest::Approx(0.25f));
+  CHECK(near3(m.emissive, {2.0f, 0, 0}));  // 0.5 times KHR_materials_emissive_strength 4
+  REQUIRE(s->meshes[0].uvs1.size() == s->meshes[0].uvs.size());
+  CHECK(s->meshes[0].uvs1 == s->meshes[0].uvs);
+}
+
+TEST_CASE("glTF: bad samplers, texture coordinate sets and TEXCOORD_1 are named") {
+  TempDir dir;
+  const auto refused = [&](const std::string& text, std::string_view why) {
+    write_file(dir / "bad.gltf", text);
+    auto s = sc::load_gltf(dir / "bad.gltf");
+    REQUIRE_FALSE(s.has_value());
+    CHECK(s.error().kind == ErrorKind::Parse);
+    CHECK_MESSAGE(contains(s.error().message, why), s.error().message);
+    CHECK(contains(s.error().message, "bad.gltf"));
+  };
+  SUBCASE("a sampler index past the samplers") {
+    refused(full_material_gltf([](nlohmann::json& d) { d["textures"][1]["sampler"] = 7; }),
+            "material 'red' metallicRoughnessTexture: texture 1 uses sampler 7, but there are 1 samplers");
+  }
+  SUBCASE("an unknown wrap mode") {
+    refused(full_material_gltf([](nlohmann::json& d) { d["samplers"][0]["wrapT"] = 1234; }), "sampler 0 has an unknown wrapT 1234");
+  }
+  SUBCASE("an unknown filter") {
+    refused(full_material_gltf([](nlohmann::json& d) { d["samplers"][0]["magFilter"] = 5; }), "sampler 0 has an unknown magFilter 5");
+  }
+  SUBCASE("a negative texCoord") {
+    refused(full_material_gltf([](nlohmann::json& d) { d["materials"][0]["emissiveTexture"]["texCoord"] = -1; }),
+            "material 'red' emissiveTexture: texCoord -1 is negative");
+  }
+  SUBCASE("TEXCOORD_1 of the wrong length") {
+    refused(full_material_gltf([](nlohmann::json& d) {
+              d["accessors"].push_back({{"bufferView", 0}, {"byteOffset", 96}, {"componentType", 5126}, {"count", 3}, {"type", "VEC2"}});
+              d["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"] = 4;
+            }),
+            "TEXCOORD_1: accessor 4 has 3 elements, POSITION has 4");
+  }
+  SUBCASE("a texCoord beyond set 1 is a warning and reads set 0") {
+    write_file(dir / "set2.gltf", full_material_gltf([](nlohmann::json& d) { d["materials"][0]["normalTexture"]["texCoord"] = 2; }));
+    auto s = sc::load_gltf(dir / "set2.gltf");
+    REQUIRE_MESSAGE(s.has_value(), s.error().what());
+    CHECK(s->materials[0].standard.normal_texture.texcoord == 0);
+    CHECK(std::any_of(s->warnings.begin(), s->warnings.end(),
+                      [](const std::string& w) { return contains(w, "normalTexture: texCoord 2"); }));
+  }
+}
+
+TEST_CASE("glTF: the shipped sample examples/gltf/spot.glb loads with its material, UV sets, camera and lights") {
+  const auto root = source_dir();
+  if (!root) {
+    MESSAGE("WEFT_SOURCE_DIR not set: skipped");
+    return;
+  }
+  auto s = sc::load_gltf(*root / "examples/gltf/spot.glb");
+  REQUIRE_MESSAGE(s.has_value(), s.error().what());
+  CHECK(s->warnings.empty());
+  REQUIRE(s->materials.size() == 1);
+  const sc::StandardMaterial& m = s->materials[0].standard;
+  for (const sc::Texture* t : {&m.base_color_texture, &m.metallic_roughness_texture, &m.normal_texture, &m.occlusion_texture}) {
+    CHECK_FALSE(t->empty());
+    CHECK(t->mime_type == "image/png");
+  }
+  CHECK(m.emissive_texture.empty());
+  CHECK(m.occlusion_texture.texcoord == 1);
+  REQUIRE(s->meshes.size() == 1);
+  CHECK(s->meshes[0].uvs1.size() == s->meshes[0].uvs.size());
+  CHECK(s->cameras.size() == 1);
+  REQUIRE(s->lights.size() == 2);
+  CHECK(std::holds_alternative<sc::PointLight>(s->lights[0]));
+  REQUIRE(std::holds_alternative<sc::SpotLight>(s->lights[1]));
+  CHECK(std::get<sc::SpotLight>(s->lights[1]).outer_cone_degrees == doctest::Approx(30.0f).epsilon(0.001));
 }
 
 TEST_CASE("glTF: errors name the file and what is wrong") {

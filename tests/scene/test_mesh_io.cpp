@@ -87,7 +87,7 @@ TEST_CASE("OBJ: a quad with UVs and normals loads with its counts, positions and
     CHECK(mesh->uvs[i].y == doctest::Approx(1.0f - mesh->positions[i].y / 3.0f));
     CHECK(near3(mesh->normals[i], {0, 0, 1}));
     CHECK(near3(vec3(mesh->tangents[i]), {1, 0, 0}));  // u grows along +X
-    CHECK(mesh->tangents[i].w == -1.0f);  // the bitangent follows +v, which runs down the quad (-Y)
+    CHECK(mesh->tangents[i].w == 1.0f);  // the bitangent points up the image: +Y
     CHECK(mesh->curvature[i] == 0.0f);  // flat
   }
   CHECK(mesh->bounds.min == vec3(0, 0, 0));
@@ -124,6 +124,10 @@ TEST_CASE("texture orientation: each format's UV corners sample the texels its a
     CHECK(texel_at(*mesh, {1, 0, 0}) == "BR");
     CHECK(texel_at(*mesh, {1, 1, 0}) == "TR");
     CHECK(texel_at(*mesh, {0, 1, 0}) == "TL");
+    // Upright and not mirrored: the bitangent points up the image, +Y (glTF's rule).
+    for (std::size_t i = 0; i < mesh->vertex_count(); ++i) {
+      CHECK(near3(mesh->tangents[i].w * glm::cross(mesh->normals[i], vec3(mesh->tangents[i])), {0, 1, 0}));
+    }
   }
   SUBCASE("glTF: v = 0 is the image's top row, read as written") {
     // support.h's quad: TEXCOORD_0 (0, 0) at the origin, v growing along +Y.

@@ -172,11 +172,14 @@ TEST_CASE("tangents follow the UVs' handedness") {
   m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
   m.normals = {{0, 0, 1}, {0, 0, 1}, {0, 0, 1}};
   m.indices = {0, 1, 2};
-  m.uvs = {{0, 0}, {1, 0}, {0, 1}};
+  // v = 0 is the image's top row: an image shown upright on the +Y side has v growing
+  // downwards, and the bitangent w * cross(n, t) points up (+Y), the normal map's green.
+  m.uvs = {{0, 1}, {1, 1}, {0, 0}};
   sc::compute_tangents(m);
   CHECK(near3(vec3(m.tangents[0]), {1, 0, 0}));
   CHECK(m.tangents[0].w == 1.0f);
-  m.uvs = {{0, 0}, {1, 0}, {0, -1}};  // v mirrored
+  CHECK(near3(m.tangents[0].w * glm::cross(m.normals[0], vec3(m.tangents[0])), {0, 1, 0}));
+  m.uvs = {{0, 0}, {1, 0}, {0, 1}};  // the image upside down (mirrored in v)
   sc::compute_tangents(m);
   CHECK(m.tangents[0].w == -1.0f);
   m.uvs = {{0, 0}, {0, 0}, {0, 0}};  // degenerate UVs: any orthogonal unit vector

@@ -203,6 +203,42 @@ TEST_CASE("material errors name the JSON path; a second frame generates and uplo
   weft::test::expect_no_validation_messages();
 }
 
+TEST_CASE("specular_texture: its grey scales rho_s per texel; a missing file names the field") {
+  const auto dir = std::filesystem::temp_directory_path() / "weft-skin-specular-map";
+  std::filesystem::create_directories(dir);
+  const auto grey = [&](const std::string& name, std::uint8_t value) {
+    REQUIRE(image::save_png(dir / name, image::Image8::filled(4, 4, 1, value)));
+    return (dir / name).string();
+  };
+  // The light in front, a little to the side, so the sphere shows a highlight.
+  const auto frame_of = [&](const std::string& material) {
+    return render(load(sphere_scene(material, 64, "[-0.3, 0, -1]")));
+  };
+  // A strong, sharp highlight (rho_s 10, Beckmann m 0.2), so the map's effect is large.
+  const std::string base = R"("type": "skin", "mm_per_unit": 4, "roughness": 0.2, "specular": )";
+  const auto black = frame_of("{" + base + R"(10, "specular_texture": ")" + grey("black.png", 0) + R"("})");
+  const auto none = frame_of("{" + base + "0}");
+  const auto half = frame_of("{" + base + R"(10, "specular_texture": ")" + grey("half.png", 128) + R"("})");
+  const auto factor = frame_of("{" + base + std::to_string(10.0 * 128.0 / 255.0) + "}");
+  const auto full = frame_of("{" + base + "10}");
+  int worst_black = 0, worst_half = 0, highlight = 0;
+  for (std::size_t i = 0; i < black.image.pixels.size(); ++i) {
+    worst_black = std::max(worst_black, std::abs(int(black.image.pixels[i]) - int(none.image.pixels[i])));
+    worst_half = std::max(worst_half, std::abs(int(half.image.pixels[i]) - int(factor.image.pixels[i])));
+    highlight = std::max(highlight, int(full.image.pixels[i]) - int(none.image.pixels[i]));
+  }
+  CHECK(worst_black <= 1);  // a black map is no specular at all
+  CHECK(worst_half <= 2);   // a grey map is the factor times its value
+  CHECK(highlight > 10);    // and the specular is there to be scaled
+
+  auto missing = load(sphere_scene(R"({"type": "skin", "specular_texture": "no-such-map.png"})"));
+  auto refused = shared_renderer().render(missing, {.quality = Quality::Low});
+  REQUIRE_FALSE(refused);
+  CHECK_MESSAGE(refused.error().message.find("specular_texture") != std::string::npos, refused.error().message);
+  std::filesystem::remove_all(dir);
+  weft::test::expect_no_validation_messages();
+}
+
 TEST_CASE("the head scan (when ../shared/data or assets/ has it): finite curvature, a lit side brighter than the dark one") {
   std::filesystem::path path;
   for (std::filesystem::path dir : {std::filesystem::path(std::getenv("WEFT_SHARED_DATA") ? std::getenv("WEFT_SHARED_DATA") : ""),
