@@ -1,6 +1,8 @@
 # weft_add_shaders(<target> <glsl files...>): compiles GLSL to SPIR-V at build time with
 # glslangValidator and embeds each as `std::span<const uint32_t> weft::shaders::<name>()`,
 # so built-in passes ship no loose files and shader errors fail the build, not the frame.
+# Each accessor first asks weft/shader_overrides.h for a replacement (shader hot reload in
+# weft view) and registers its source file, so a program can find and recompile it.
 function(weft_add_shaders target)
   set(generated_headers)
   set(gen_dir ${CMAKE_CURRENT_BINARY_DIR}/shaders)
@@ -8,6 +10,8 @@ function(weft_add_shaders target)
   set(decls "")
   set(protos "")
   set(defs "")
+  set(registrations "")
+  set(include_dirs "${PROJECT_SOURCE_DIR}/shaders;${CMAKE_CURRENT_SOURCE_DIR}")
   foreach(src ${ARGN})
     get_filename_component(abs ${src} ABSOLUTE)
     get_filename_component(fname ${src} NAME)
@@ -24,11 +28,17 @@ function(weft_add_shaders target)
       VERBATIM)
     list(APPEND generated_headers ${header})
     string(APPEND decls "#include \"${fname}.spv.h\"\n")
-    string(APPEND defs "std::span<const std::uint32_t> ${ident}() { return spv_${ident}; }\n")
+    string(APPEND defs "std::span<const std::uint32_t> ${ident}() {\n"
+                       "  if (auto o = find_override(\"${fname}\"); !o.empty()) return o;\n"
+                       "  return spv_${ident};\n}\n")
+    string(APPEND registrations "  register_source(\"${fname}\", \"${abs}\", \"${include_dirs}\");\n")
     string(APPEND protos "std::span<const std::uint32_t> ${ident}();\n")
   endforeach()
+  string(MAKE_C_IDENTIFIER ${target} target_ident)
   set(cpp ${gen_dir}/${target}_shaders.cpp)
-  file(WRITE ${cpp}.in "#include <cstdint>\n#include <span>\n${decls}namespace weft::shaders {\n${defs}}\n")
+  file(WRITE ${cpp}.in "#include <cstdint>\n#include <span>\n#include \"weft/shader_overrides.h\"\n${decls}"
+                      "namespace weft::shaders {\n${defs}\nnamespace {\n"
+                      "[[maybe_unused]] const bool registered_${target_ident} = [] {\n${registrations}  return true;\n}();\n}\n}\n")
   configure_file(${cpp}.in ${cpp} COPYONLY)
   # <target>_shaders.h declares the accessors for the target's own sources.
   set(h ${gen_dir}/${target}_shaders.h)
@@ -36,4 +46,5 @@ function(weft_add_shaders target)
   configure_file(${h}.in ${h} COPYONLY)
   target_sources(${target} PRIVATE ${cpp} ${generated_headers})
   target_include_directories(${target} PRIVATE ${gen_dir})
+  target_link_libraries(${target} PRIVATE weft_core)  # weft/shader_overrides.h
 endfunction()

@@ -197,14 +197,7 @@ std::vector<Setting> plan_sweep(const Study& study, std::span<const KnobValues> 
   // A preset as the feature's knob values at the renderer's medium quality, so the rows differ
   // only in the feature (--quality also changes the renderer's shadow map resolution); a
   // feature without preset_values is rendered at the quality itself.
-  for (Quality q : {Quality::Low, Quality::Medium, Quality::High, Quality::Reference}) {
-    Setting s{.label = weft::format("preset {}", to_string(q)), .group = "preset", .strip_knobs = true, .preset = q};
-    if (study.preset_values)
-      s.values = study.preset_values(q);
-    else
-      s.quality = q;
-    add(std::move(s));
-  }
+  for (Quality q : {Quality::Low, Quality::Medium, Quality::High, Quality::Reference}) add(preset_setting(study, q));
   std::set<std::string> in_grid;
   for (const auto& [a, b] : study.grids) {
     auto ka = find_knob(study, a), kb = find_knob(study, b);
@@ -225,6 +218,15 @@ std::vector<Setting> plan_sweep(const Study& study, std::span<const KnobValues> 
     }
   }
   return plan;
+}
+
+Setting preset_setting(const Study& study, Quality q) {
+  Setting s{.label = weft::format("preset {}", to_string(q)), .group = "preset", .strip_knobs = true, .preset = q};
+  if (study.preset_values)
+    s.values = study.preset_values(q);
+  else
+    s.quality = q;
+  return s;
 }
 
 std::vector<Setting> extreme_settings(const Study& study, const json& base) {

@@ -83,6 +83,9 @@ std::string value_text(const nlohmann::json& value);  // 32, 0.35, true, adaptiv
 // The settings a sweep renders, the reference first: the four presets, each knob's sweep
 // one at a time around the medium preset (its values replaced by `overrides`), the grids;
 // duplicates (same quality and values) are rendered once under the first label.
+// A quality preset as the feature's knob values (the renderer's quality itself for a feature
+// without preset_values).
+Setting preset_setting(const Study& study, Quality quality);
 std::vector<Setting> plan_sweep(const Study& study, std::span<const KnobValues> overrides = {});
 // The stability sweep: the minimum and maximum of each knob (every choice, both booleans),
 // one at a time on top of `base`, plus the reference.
@@ -114,6 +117,50 @@ struct ImageError {
   std::size_t pixels = 0;
 };
 Result<ImageError> compare(const image::Image8& render, const image::Image8& reference, const Mask& mask);
+
+// ---- the frame-time budget -------------------------------------------------------------------
+// A governor (weft.governor) measures, at the current camera on this adapter, what each of the
+// scene's features costs at each of its levels (its quality presets, cheapest first) and how
+// far each level is from the feature's best level; this part picks the levels, and is tested
+// without a device.
+//
+// The model: frame time = base + the sum of each feature's cost, where base is the frame with
+// every feature at its cheapest level and a feature's cost at a level is the frame with that
+// feature there and the others cheapest, minus base. A level's error is the mean squared
+// difference (linear RGB, whole frame) from the same frame with the feature at its best level;
+// the frame's error is the sum over features (their pixels mostly differ, so squared errors add).
+struct BudgetLevel {
+  Setting setting;       // what apply_setting writes into the feature's materials
+  double cost_ms = 0.0;  // over base (the cheapest level's is 0)
+  double mse = 0.0;      // against the feature's best level (the best level's is 0)
+};
+struct BudgetFeature {
+  const Study* study = nullptr;
+  std::vector<BudgetLevel> levels;  // cheapest first
+};
+struct BudgetTable {
+  double base_ms = 0.0;
+  std::vector<BudgetFeature> features;
+};
+struct BudgetChoice {
+  std::vector<std::size_t> level;  // per feature of the table
+  double predicted_ms = 0.0;
+  double predicted_mse = 0.0;
+  bool fits = false;  // predicted_ms <= the budget; false: every feature at its cheapest level
+};
+// The levels a governor chooses among: the feature's low, medium and high presets (reference
+// settings can take minutes, e.g. skin's brute-force integration, so they are not offered); one
+// level for a feature without preset_values (it follows the renderer's quality).
+std::vector<Setting> budget_levels(const Study& study);
+// The least predicted error whose predicted time is within the budget (every combination when
+// there are at most 2^20 of them, else greedy steps down from the best levels); when none
+// fits, every feature at its cheapest level, fits = false.
+BudgetChoice choose_within_budget(const BudgetTable& table, double budget_ms);
+// One level cheaper for the feature that gives up the least error per millisecond saved;
+// nothing when every feature is already at its cheapest level. For when the measured frame
+// of a choice is over the budget that its prediction met.
+std::optional<BudgetChoice> step_down(const BudgetTable& table, const BudgetChoice& choice, double budget_ms);
+BudgetChoice evaluate(const BudgetTable& table, std::vector<std::size_t> level, double budget_ms);
 
 // ---- results and reports -----------------------------------------------------------------------
 // Times are medians over the steady frames (those after the first).

@@ -10,6 +10,7 @@
 #include <expected>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <set>
 #include <string>
@@ -387,4 +388,122 @@ TEST_CASE("reports: CSV quoting, markdown rows, SVG escaping") {
   CHECK(svg.find("</svg>") != std::string::npos);
   CHECK(svg.find("layers=8 &lt;&amp;&gt;") != std::string::npos);  // the front is labelled, escaped
   CHECK(svg.find("<&>") == std::string::npos);
+}
+
+// ---- the frame-time budget's choice ------------------------------------------------------------
+
+namespace {
+// A table of `features` features with `levels` levels each: cost rising and error falling
+// with the level (as presets do), random steps; the best level's error is 0.
+to::BudgetTable random_table(std::mt19937& rng, std::size_t features, std::size_t levels) {
+  std::uniform_real_distribution<double> step(0.5, 40.0), err(1e-5, 1e-2);
+  to::BudgetTable t;
+  t.base_ms = step(rng);
+  for (std::size_t f = 0; f < features; ++f) {
+    to::BudgetFeature feature;
+    double cost = 0.0;
+    std::vector<double> mse(levels, 0.0);
+    for (std::size_t l = levels - 1; l-- > 0;) mse[l] = mse[l + 1] + err(rng);
+    for (std::size_t l = 0; l < levels; ++l) {
+      if (l > 0) cost += step(rng);
+      feature.levels.push_back({.cost_ms = cost, .mse = mse[l]});
+    }
+    t.features.push_back(std::move(feature));
+  }
+  return t;
+}
+}  // namespace
+
+TEST_CASE("budget: the choice is the least error that fits, as brute force finds it; none fits -> cheapest") {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 200; ++trial) {
+    const std::size_t features = 1 + std::size_t(trial % 4), levels = 1 + std::size_t(trial % 3);
+    const auto table = random_table(rng, features, levels);
+    double most = table.base_ms;
+    for (const auto& f : table.features) most += f.levels.back().cost_ms;
+    const double budget = std::uniform_real_distribution<double>(0.5 * table.base_ms, most * 1.1)(rng);
+    const auto c = to::choose_within_budget(table, budget);
+    // Brute force over every combination, written independently of the chooser.
+    double best_mse = std::numeric_limits<double>::infinity();
+    std::size_t combos = 1;
+    for (std::size_t i = 0; i < features; ++i) combos *= levels;
+    for (std::size_t code = 0; code < combos; ++code) {
+      double ms = table.base_ms, mse = 0.0;
+      for (std::size_t f = 0, rest = code; f < features; ++f, rest /= levels) {
+        ms += table.features[f].levels[rest % levels].cost_ms;
+        mse += table.features[f].levels[rest % levels].mse;
+      }
+      if (ms <= budget) best_mse = std::min(best_mse, mse);
+    }
+    CAPTURE(trial);
+    CAPTURE(budget);
+    if (std::isinf(best_mse)) {
+      CHECK_FALSE(c.fits);
+      CHECK(std::all_of(c.level.begin(), c.level.end(), [](std::size_t l) { return l == 0; }));
+    } else {
+      CHECK(c.fits);
+      CHECK(c.predicted_ms <= budget);
+      CHECK(c.predicted_mse == doctest::Approx(best_mse).epsilon(1e-12));
+    }
+  }
+}
+
+TEST_CASE("budget: a budget above everything takes every best level; stepping down walks to the cheapest") {
+  std::mt19937 rng(11);
+  const auto table = random_table(rng, 3, 3);
+  auto c = to::choose_within_budget(table, 1e9);
+  CHECK(c.fits);
+  CHECK(c.level == std::vector<std::size_t>{2, 2, 2});
+  CHECK(c.predicted_mse == 0.0);
+  // Each step lowers exactly one feature by one level and costs less; six steps reach the cheapest.
+  for (int steps = 0; steps < 6; ++steps) {
+    auto next = to::step_down(table, c, 1e9);
+    REQUIRE(next);
+    int lowered = 0;
+    for (std::size_t f = 0; f < 3; ++f) lowered += int(c.level[f] - next->level[f]);
+    CHECK(lowered == 1);
+    CHECK(next->predicted_ms <= c.predicted_ms);
+    CHECK(next->predicted_mse >= c.predicted_mse);
+    c = *next;
+  }
+  CHECK(c.level == std::vector<std::size_t>{0, 0, 0});
+  CHECK_FALSE(to::step_down(table, c, 1e9));
+}
+
+TEST_CASE("budget: stepping down gives up the least error per millisecond saved") {
+  to::BudgetTable t;
+  t.base_ms = 10.0;
+  // Feature 0's top level saves 10 ms for 1e-3 error; feature 1's saves 10 ms for 1e-4.
+  t.features.push_back({.levels = {{.cost_ms = 0.0, .mse = 1e-3}, {.cost_ms = 10.0, .mse = 0.0}}});
+  t.features.push_back({.levels = {{.cost_ms = 0.0, .mse = 1e-4}, {.cost_ms = 10.0, .mse = 0.0}}});
+  const auto top = to::evaluate(t, {1, 1}, 25.0);
+  CHECK_FALSE(top.fits);
+  const auto next = to::step_down(t, top, 25.0);
+  REQUIRE(next);
+  CHECK(next->level == std::vector<std::size_t>{1, 0});
+  CHECK(next->fits);
+  CHECK(to::choose_within_budget(t, 25.0).level == std::vector<std::size_t>{1, 0});
+  CHECK(to::choose_within_budget(t, 9.0).fits == false);
+}
+
+TEST_CASE("budget: many features are chosen greedily and still fit") {
+  std::mt19937 rng(3);
+  const auto table = random_table(rng, 24, 3);  // 3^24 combinations: too many to try
+  double most = table.base_ms;
+  for (const auto& f : table.features) most += f.levels.back().cost_ms;
+  const auto c = to::choose_within_budget(table, 0.5 * (table.base_ms + most));
+  CHECK(c.fits);
+  CHECK(c.predicted_ms <= 0.5 * (table.base_ms + most));
+  CHECK(c.predicted_mse > 0.0);
+}
+
+TEST_CASE("budget: each built-in feature offers its low, medium and high presets as levels") {
+  for (const char* name : {"shell_fur", "skin_sss", "ssdf_lighting", "neural_btf"}) {
+    const auto levels = to::budget_levels(study(name));
+    REQUIRE(levels.size() == 3);
+    CHECK(levels[0].preset == Quality::Low);
+    CHECK(levels[2].preset == Quality::High);
+    for (const auto& l : levels) CHECK(l.strip_knobs);
+    CHECK(levels[0].values != levels[2].values);
+  }
 }

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 #include <unistd.h>
@@ -246,4 +247,66 @@ TEST_CASE("compare with reference: the reference setting against itself is exact
   };
   CHECK(brightest(same) == 0);
   CHECK(brightest(coarse) > 0);
+}
+
+TEST_CASE("the frame-time budget: a budget above everything takes the best presets, one below the cheapest says so") {
+  require_display();
+  write(scratch() / "budget.json", skin_scene("100", "ball", "[0.45, 0.3, 0.2]"));
+  const fs::path fitted = scratch() / "budget.png";
+  write(scratch() / "budget.txt", "ui off\nrefine\nbudget 1000000\nrefine\nscreenshot " + fitted.string() +
+                                  "\nbudget 0.001\nrefine\nquit\n");
+  auto r = run("WEFT_VALIDATION=1 WEFT_SYNC_VALIDATION=1 " + weft_cli() + " view " + (scratch() / "budget.json").string() +
+               " --size 160x120 --script " + (scratch() / "budget.txt").string());
+  INFO(r.output);
+  REQUIRE(r.code == 0);
+  CHECK(r.output.find("weft view: 0 validation message(s)") != std::string::npos);
+  // One feature (skin_sss) in the scene: the best level within a huge budget...
+  CHECK(r.output.find("budget: skin_sss=preset high: ") != std::string::npos);
+  // ...and the cheapest, reported as not met, within one nothing meets.
+  CHECK(r.output.find("budget: skin_sss=preset low: ") != std::string::npos);
+  CHECK(r.output.find("cannot be met") != std::string::npos);
+  CHECK(r.output.find("1 screenshot(s)") != std::string::npos);
+}
+
+TEST_CASE("shader hot reload: an edited tone map shows, a shader that does not compile is reported and the frame kept, a fix recovers") {
+  require_display();
+  const char* root = std::getenv("WEFT_SOURCE_DIR");
+  REQUIRE(root);
+  std::ifstream in(fs::path(root) / "passes/tonemap/tonemap.frag");
+  REQUIRE(in);
+  const std::string original{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  // The edit: the shader's own main() runs, then its output is painted pure red.
+  const std::size_t main_at = original.find("void main()");
+  REQUIRE(main_at != std::string::npos);
+  REQUIRE(original.find("out vec4 out_color;") != std::string::npos);
+  const std::string red = original.substr(0, main_at) + "void original_main()" + original.substr(main_at + 11) +
+                          "\nvoid main() { original_main(); out_color = vec4(1.0, 0.0, 0.0, 1.0); }\n";
+  const fs::path dir = scratch() / "shaders";
+  fs::create_directories(dir);
+  write(dir / "tonemap.frag", original);
+  write(scratch() / "tonemap_red.frag", red);
+  write(scratch() / "tonemap_broken.frag", original + "\nthis is not GLSL\n");
+  write(scratch() / "tonemap_original.frag", original);
+  write(scratch() / "shader.json", ball_scene("[0.1, 0.6, 0.1]"));
+  auto shot = [&](const char* name) { return (scratch() / name).string(); };
+  const std::string live = (dir / "tonemap.frag").string();
+  write(scratch() / "shader.txt", "ui off\nrefine\nscreenshot " + shot("s_a.png") + "\n" +
+                                  "copy " + shot("tonemap_red.frag") + " " + live + "\nwait 3\nrefine\nscreenshot " + shot("s_b.png") + "\n" +
+                                  "copy " + shot("tonemap_broken.frag") + " " + live + "\nwait 3\nrefine\nscreenshot " + shot("s_c.png") + "\n" +
+                                  "copy " + shot("tonemap_original.frag") + " " + live + "\nwait 3\nrefine\nscreenshot " + shot("s_d.png") + "\nquit\n");
+  auto r = run("WEFT_VALIDATION=1 WEFT_SYNC_VALIDATION=1 " + weft_cli() + " view " + (scratch() / "shader.json").string() +
+               " --size 160x120 --shader-dir " + dir.string() + " --script " + (scratch() / "shader.txt").string());
+  INFO(r.output);
+  REQUIRE(r.code == 0);
+  CHECK(r.output.find("weft view: 0 validation message(s)") != std::string::npos);
+  CHECK(r.output.find("4 screenshot(s)") != std::string::npos);
+  // The red tone map: every pixel red.
+  CHECK(centre_mean(shot("s_b.png"), 0) == 255.0);
+  CHECK(centre_mean(shot("s_b.png"), 1) == 0.0);
+  CHECK(centre_mean(shot("s_a.png"), 1) > 60.0);  // the green ball before
+  // The broken shader: one line naming it and glslang's error; the red frame stays.
+  CHECK(r.output.find("shader reload failed: shader tonemap.frag: ERROR") != std::string::npos);
+  CHECK(difference(shot("s_b.png"), shot("s_c.png")).max == 0);
+  // The original again: the first image.
+  CHECK(difference(shot("s_a.png"), shot("s_d.png")).max <= 1);
 }

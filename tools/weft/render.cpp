@@ -1,4 +1,4 @@
-// `weft render SCENE.json -o out.png [--quality q] [--size WxH] [--profile]` and
+// `weft render SCENE.json -o out.png [--quality q] [--size WxH] [--profile] [--budget-ms N]` and
 // `weft graph SCENE.json [--dot out.dot] [--dump]`.
 #include <algorithm>
 #include <cctype>
@@ -10,6 +10,7 @@
 #include <fstream>
 #include <memory>
 #include <string>
+#include <string_view>
 #include "commands.h"
 import weft.core;
 import weft.gpu;
@@ -17,6 +18,7 @@ import weft.graph;
 import weft.image;
 import weft.scene;
 import weft.renderer;
+import weft.governor;
 
 namespace weft::cli {
 
@@ -125,6 +127,25 @@ Result<void> save_frame(const std::string& path, OutputKind kind, const renderer
   }
   return {};
 }
+// --budget-ms: the governor measures the features' levels, chooses, checks; the chosen frame is saved.
+int render_within_budget(renderer::Renderer& r, const scene::Scene& scene, const renderer::RenderOptions& options,
+                         double budget_ms, const std::string& output, OutputKind kind, float exposure) {
+  governor::BudgetOptions budget{.budget_ms = budget_ms};
+  budget.progress = [](std::string_view line) { log::info(std::string(line)); };
+  auto result = governor::fit_budget(r, scene, options, budget);
+  if (!result) return fail_with("render", result.error());
+  const auto& table = result->table;
+  std::printf("| feature | level | frame over base ms | MSE vs best level |\n|:--|:--|--:|--:|\n");
+  for (const auto& f : table.features)
+    for (const auto& l : f.levels)
+      std::printf("| %s | %s | %.1f | %.3g |\n", f.study->feature.c_str(), l.setting.label.c_str(), l.cost_ms, l.mse);
+  std::printf("base (every feature cheapest): %.1f ms; predicted %.1f ms for the choice\n", table.base_ms,
+              result->predicted.predicted_ms);
+  std::printf("budget: %s\n", result->summary(budget_ms).c_str());
+  if (auto ok = save_frame(output, kind, result->frame, exposure); !ok) return fail_with("render", ok.error());
+  std::printf("wrote %s (%ux%u)\n", output.c_str(), result->frame.image.width, result->frame.image.height);
+  return 0;
+}
 }  // namespace
 
 Command add_render(CLI::App& app) {
@@ -142,6 +163,11 @@ Command add_render(CLI::App& app) {
   sub->add_flag("--profile", *profile, "Print a per-pass timing table");
   sub->add_option("--frames", *frames, "Render this many frames; --profile then reports medians of frames 2..N")
       ->check(CLI::Range(1u, 10000u));
+  auto budget_ms = std::make_shared<double>(0.0);
+  sub->add_option("--budget-ms", *budget_ms,
+                  "Pick each feature's preset (low/medium/high) for the least error within this frame time, "
+                  "measured on this adapter at the scene's camera (docs/viewer.md#the-frame-time-budget)")
+      ->check(CLI::Range(1e-3, 1e7));
   return [=] {
     auto options = options_from(*c);
     if (!options) return fail_with("render", options.error());
@@ -159,6 +185,7 @@ Command add_render(CLI::App& app) {
     auto r = renderer::Renderer::create(session->device);
     if (!r) return fail_with("render", r.error());
     log::info(weft::format("rendering on {}", session->adapter.info().name));
+    if (*budget_ms > 0.0) return render_within_budget(*r, *scene, *options, *budget_ms, *output, *kind, *exposure);
     auto frame = r->render(*scene, *options);
     if (!frame) return fail_with("render", frame.error());
     std::vector<FrameStats> later;  // frames after the first reuse every cache

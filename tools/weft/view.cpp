@@ -15,6 +15,7 @@ Command add_view(CLI::App& app) {
   struct Options {
     std::string scene, size = "1280x720", quality = "medium", script;
     double motion_budget_ms = 100.0;
+    std::string shader_dir;
   };
   auto o = std::make_shared<Options>();
   sub->add_option("scene", o->scene, "Scene file (.json, or a .gltf/.glb); edits to it are reloaded live")->required();
@@ -25,6 +26,9 @@ Command add_view(CLI::App& app) {
                   "Scene frames while the camera moves aim at this time (lower resolution)")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 100000.0));
+  sub->add_option("--shader-dir", o->shader_dir,
+                  "Hot-reload built-in shaders from files of the same names in this folder (default: their sources "
+                  "in the source tree)");
   return [o] {
 #ifdef WEFT_HAVE_VIEWER
     const auto size = parse_size(o->size, 16384);  // digits only: sscanf's %u read "-1" as 4294967295
@@ -35,6 +39,7 @@ Command add_view(CLI::App& app) {
     viewer::ViewOptions options{.scene = o->scene, .width = size->width, .height = size->height, .quality = o->quality,
                                 .motion_budget_ms = o->motion_budget_ms};
     if (!o->script.empty()) options.script = o->script;
+    if (!o->shader_dir.empty()) options.shader_dir = o->shader_dir;
     return viewer::run(options);
 #else
     std::fprintf(stderr, "weft view: this weft was built without the viewer (install libglfw3-dev and libimgui-dev, "

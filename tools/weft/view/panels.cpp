@@ -158,6 +158,20 @@ void timing_panel(Session& s) {
               double(s.stats.transient_bytes) / (1 << 20), double(s.stats.transient_bytes_unaliased) / (1 << 20));
 }
 
+// The frame-time budget: the governor measures each feature at its low, medium and high presets
+// at this camera and picks the least error that fits (docs/viewer.md#the-frame-time-budget).
+void budget_panel(Session& s) {
+  if (!ImGui::CollapsingHeader("Frame-time budget")) return;
+  ImGui::InputDouble("target ms", &s.budget_ms, 10.0, 100.0, "%.0f");
+  s.budget_ms = std::clamp(s.budget_ms, 1.0, 1e6);
+  if (s.budget_running) {
+    ImGui::TextColored(ImVec4(1, 0.8f, 0.3f, 1), "%s", s.scene_renderer->progress().c_str());
+  } else if (ImGui::Button("fit the features to the budget")) {
+    s.request_budget();
+  }
+  if (!s.budget_summary.empty()) ImGui::TextWrapped("%s", s.budget_summary.c_str());
+}
+
 void graph_panel(Session& s) {
   if (!ImGui::CollapsingHeader("Graph")) return;
   if (!s.graph) {
@@ -197,6 +211,7 @@ void Session::draw_ui() {
   ImGui::TextDisabled("drag: orbit | right drag: pan | wheel: zoom | WASDQE: fly | R reset | H UI | P screenshot");
   scene_panel(*this);
   timing_panel(*this);
+  budget_panel(*this);
   graph_panel(*this);
   messages_panel(*this);
   ImGui::End();

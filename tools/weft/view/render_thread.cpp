@@ -10,6 +10,7 @@ module;
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <utility>
 module weft.viewer;
@@ -17,6 +18,7 @@ import weft.core;
 import weft.gpu;
 import weft.scene;
 import weft.renderer;
+import weft.governor;
 
 namespace weft::viewer::detail {
 
@@ -28,6 +30,8 @@ struct SceneRenderer::Shared {
   bool stop = false;
   bool busy = false;
   Clock::time_point busy_since{};
+  std::string progress;
+  bool renew = false;
 };
 
 Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
@@ -41,6 +45,7 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
   r.thread_ = std::thread([shared = r.shared_, owned, made = std::make_shared<renderer::Renderer>(std::move(*renderer))]() mutable {
     std::shared_ptr<const scene::Scene> source;
     scene::Scene scene;  // the thread's copy; only the camera changes between versions
+    bool renew = false;
     while (true) {
       RenderJob job;
       {
@@ -49,8 +54,22 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
         if (shared->stop) break;
         job = std::move(*shared->pending);
         shared->pending.reset();
+        renew = std::exchange(shared->renew, false);
         shared->busy = true;
         shared->busy_since = Clock::now();
+      }
+      if (renew) {  // shaders were replaced: the old renderer's pipelines go, with their passes
+        (void)owned->queue().wait_idle();
+        made.reset();
+        auto fresh = renderer::Renderer::create(*owned);
+        if (!fresh) {
+          RenderResult failed{.id = job.id, .moving = job.moving, .reference = job.reference, .error = fresh.error().what()};
+          std::lock_guard lock(shared->mutex);
+          shared->result = std::move(failed);
+          shared->busy = false;
+          continue;
+        }
+        made = std::make_shared<renderer::Renderer>(std::move(*fresh));
       }
       if (job.scene != source) {
         source = job.scene;
@@ -60,6 +79,32 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
       RenderResult result{.id = job.id, .moving = job.moving, .reference = job.reference};
       const auto t0 = Clock::now();
       const renderer::RenderOptions options{.width = job.width, .height = job.height, .quality = job.quality};
+      if (job.budget_ms > 0.0) {
+        governor::BudgetOptions budget{.budget_ms = job.budget_ms};
+        budget.progress = [&](std::string_view line) {
+          log::info(std::string(line));
+          std::lock_guard lock(shared->mutex);
+          shared->progress = line;
+        };
+        auto fitted = governor::fit_budget(*made, scene, options, budget);
+        result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+        if (fitted) {
+          BudgetOutcome outcome{.summary = fitted->summary(job.budget_ms), .measured_ms = fitted->measured_ms,
+                                .met = fitted->met};
+          for (std::size_t f = 0; f < fitted->table.features.size(); ++f) {
+            const auto& feature = fitted->table.features[f];
+            outcome.values.emplace_back(feature.study->material, feature.levels.at(fitted->choice.level.at(f)).setting.values);
+          }
+          result.budget = std::move(outcome);
+        } else {
+          result.error = fitted.error().what();
+        }
+        std::lock_guard lock(shared->mutex);
+        shared->result = std::move(result);
+        shared->busy = false;
+        shared->progress.clear();
+        continue;
+      }
       auto frame = made->render(scene, options);
       result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
       if (frame) {
@@ -109,6 +154,16 @@ double SceneRenderer::busy_seconds() const {
   std::lock_guard lock(shared_->mutex);
   if (!shared_->busy) return 0.0;
   return std::chrono::duration<double>(Clock::now() - shared_->busy_since).count();
+}
+
+void SceneRenderer::renew_renderer() {
+  std::lock_guard lock(shared_->mutex);
+  shared_->renew = true;
+}
+
+std::string SceneRenderer::progress() const {
+  std::lock_guard lock(shared_->mutex);
+  return shared_->progress;
 }
 
 bool SceneRenderer::idle() const {

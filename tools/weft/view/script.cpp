@@ -31,6 +31,7 @@ const std::map<std::string, Arity, std::less<>>& commands() {
       {"refine", {0, 0, "refine"}},             {"screenshot", {1, 1, "screenshot PATH"}},
       {"copy", {2, 2, "copy FROM TO"}},         {"compare", {1, 1, "compare MATERIAL"}},
       {"overlay", {1, 1, "overlay on|off"}},         {"quit", {0, 0, "quit"}},
+      {"budget", {1, 1, "budget MILLISECONDS"}},
   };
   return table;
 }
@@ -68,11 +69,12 @@ Result<Script> parse_script(const std::filesystem::path& path, const std::string
       return bad("'" + command.name + "' takes " + std::to_string(a.min) +
                  (a.max != a.min ? "+" : "") + " argument(s): " + a.usage);
     const std::string& n = command.name;
-    const bool numeric = n == "orbit" || n == "pan" || n == "zoom" || n == "fly" || n == "resize" || n == "wait";
+    const bool numeric = n == "orbit" || n == "pan" || n == "zoom" || n == "fly" || n == "resize" || n == "wait" || n == "budget";
     if (numeric)
       for (const auto& arg : command.args)
         if (!is_number(arg)) return bad("'" + n + "' expects numbers, got '" + arg + "': " + a.usage);
     if (n == "zoom" && std::stof(command.args[0]) <= 0.0f) return bad("zoom factor must be > 0");
+    if (n == "budget" && !(std::stof(command.args[0]) > 0.0f)) return bad("budget must be a positive number of milliseconds");
     if (n == "resize" && (std::stoi(command.args[0]) < 1 || std::stoi(command.args[1]) < 1 ||
                           std::stoi(command.args[0]) > 16384 || std::stoi(command.args[1]) > 16384))
       return bad("resize needs sizes within 1..16384");

@@ -100,6 +100,26 @@ void Session::poll_reload() {
   log::info(weft::format("reloaded {}", options.scene.string()));
 }
 
+// Every half second: a saved shader is compiled and replaces the built-in; the render thread
+// makes its pipelines again and the view is rendered anew. A bad shader keeps the last frame.
+void Session::poll_shaders() {
+  if (!shader_watch || seconds_since(last_shader_poll) < 0.5) return;
+  last_shader_poll = Clock::now();
+  auto reload = shader_watch->poll();
+  if (!reload) return;
+  if (!reload->error.empty()) {
+    error = "shader reload failed: " + reload->error;
+    log::warn(error);
+    return;
+  }
+  std::string names;
+  for (const auto& n : reload->shaders) names += (names.empty() ? "" : ", ") + n;
+  log::info(weft::format("shaders reloaded: {}", names));
+  if (error.rfind("shader reload failed", 0) == 0) error.clear();
+  scene_renderer->renew_renderer();
+  scene_changed();
+}
+
 Result<void> Session::open() {
   if (auto q = renderer::quality_from_string(options.quality); q)
     quality = *q;
@@ -196,6 +216,7 @@ void Session::step_script() {
     if (comparison && !comparison->metrics) return;
     waiting_compare = false;
   }
+  if (budget_running) return;
   auto number = [](const std::string& s) { return std::stof(s); };
   while (script_next < script->commands.size()) {
     const ScriptCommand& c = script->commands[script_next++];
@@ -278,6 +299,7 @@ void Session::step_script() {
       } else {
         // Some file systems keep whole-second times: make the change visible to the poll.
         std::filesystem::last_write_time(a[1], std::filesystem::file_time_type::clock::now(), ec);
+        last_shader_poll = {};  // and poll the shaders on the next frame, not in half a second
       }
       return;
     } else if (c.name == "compare") {
@@ -290,6 +312,10 @@ void Session::step_script() {
       }
       request_comparison(std::size_t(it - scene.materials.begin()));
       waiting_compare = true;
+      return;
+    } else if (c.name == "budget") {
+      budget_ms = std::stod(a[0]);
+      request_budget();
       return;
     } else if (c.name == "quit") {
       quit = true;
@@ -320,6 +346,26 @@ void Session::post_job(const Wanted& want) {
   }
 }
 
+// The governor runs on the render thread at the window's full size and the current camera: it
+// renders many frames (each feature at each preset), so the window shows its progress.
+void Session::request_budget() {
+  if (budget_running) return;
+  if (!posted) {
+    budget_summary = "the budget is fitted once the first frame is on screen";
+    log::warn(budget_summary);
+    return;
+  }
+  scene::Camera view = scene.camera;
+  view.position = posted->pose.position;
+  view.target = posted->pose.target;
+  if (!snapshot) snapshot = std::make_shared<const scene::Scene>(scene);
+  scene_renderer->submit({.scene = snapshot, .camera = view, .width = std::uint32_t(posted->width),
+                          .height = std::uint32_t(posted->height), .quality = posted->quality, .budget_ms = budget_ms,
+                          .id = ++posted_id});
+  budget_running = true;
+  budget_summary = weft::format("measuring the features for a {:.0f} ms budget...", budget_ms);
+}
+
 void Session::request_comparison(std::size_t material) {
   Comparison c;
   c.material = material;
@@ -344,6 +390,26 @@ Result<void> Session::update_comparison() {
 }
 
 Result<void> Session::accept(RenderResult result, int window_w, int window_h) {
+  if (budget_running && !result.reference && (result.budget || !result.error.empty()) && !result.frame) {
+    budget_running = false;
+    if (!result.budget) {
+      budget_summary.clear();
+      error = weft::format("budget failed: {}", result.error);
+      log::warn(error);
+    } else {
+      // The chosen presets become the materials' knob values, as if set in the Scene panel.
+      for (const auto& [type, values] : result.budget->values)
+        for (std::size_t m = 0; m < scene.materials.size(); ++m)
+          if (material_type_name(scene.materials[m]) == type)
+            for (const auto& [field, value] : values.items()) set_knob(m, field, value);
+      budget_summary = result.budget->summary;
+      std::printf("budget: %s\n", budget_summary.c_str());
+      std::fflush(stdout);
+    }
+    posted.reset();  // the view is posted again with the chosen settings
+    scene_changed();
+    return {};
+  }
   if (result.reference) {
     if (!comparison || !comparison->posted || comparison->against != result.id || result.id != posted_id) return {};
     if (!result.frame) {
@@ -559,6 +625,13 @@ int run(const ViewOptions& options) {
     return 1;
   }
   s.scene_renderer.emplace(std::move(*scene_renderer));
+  if (options.shader_dir && !std::filesystem::is_directory(*options.shader_dir)) {
+    std::fprintf(stderr, "weft view: --shader-dir '%s' is not a folder\n", options.shader_dir->string().c_str());
+    return 1;
+  }
+  s.shader_watch.emplace(options.shader_dir);
+  log::info(weft::format("shader hot reload: watching {} file(s){}", s.shader_watch->watched_files(),
+                         options.shader_dir ? " in " + options.shader_dir->string() : std::string(" of the source tree")));
   log::info(weft::format("viewing {} on {} ({})", options.scene.string(), s.adapter->info().name,
                          gpu::to_string(s.surface->configuration().present_mode)));
 
@@ -571,6 +644,7 @@ int run(const ViewOptions& options) {
     glfwPollEvents();
     s.step_script();
     s.poll_reload();
+    s.poll_shaders();
     const bool hidden = s.script_hidden || glfwGetWindowAttrib(s.window, GLFW_ICONIFIED);
     glfwGetFramebufferSize(s.window, &fw, &fh);
     if (hidden || fw <= 0 || fh <= 0) {  // minimised: nothing to draw, keep the CPU idle

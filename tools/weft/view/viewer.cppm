@@ -11,6 +11,8 @@ module;
 #include <optional>
 #include <string>
 #include <vector>
+#include <map>
+#include <utility>
 #include <chrono>
 #include <thread>
 #include <glm/glm.hpp>
@@ -59,6 +61,8 @@ class OrbitCamera {
 //   quality low|medium|high|reference | ui on|off | resize W H | minimize | restore
 //   wait FRAMES | refine | screenshot PATH | copy FROM TO | quit
 //   compare MATERIAL (its feature's reference at this camera: RMSE, PSNR) | overlay on|off
+//   budget MS   (the governor picks each feature's preset for this frame time; waits for it)
+//   (`copy` also makes the next frame poll the scene file and the shaders for hot reload)
 struct ScriptCommand {
   std::string name;
   std::vector<std::string> args;
@@ -79,6 +83,9 @@ struct ViewOptions {
   std::optional<std::filesystem::path> script;
   // Scene renders while the camera moves aim at this many milliseconds (dynamic resolution).
   double motion_budget_ms = 100.0;
+  // Shader hot reload watches the built-in shaders' sources in the source tree; with a folder,
+  // files of the same names there instead ("tonemap.frag"), compiled with it first on the path.
+  std::optional<std::filesystem::path> shader_dir;
 };
 // Runs until the window closes, Escape, or the script's `quit`; the exit code (non-zero with
 // a one-line reason on stderr: no display, a bad scene or script, validation messages).
@@ -137,6 +144,32 @@ struct Comparison {
 std::string material_type_name(const scene::Material& material);
 bool is_standard(const scene::Material& material);
 
+// Shader hot reload (shader_watch.cpp): polls the built-in shaders' sources, compiles a
+// changed one with glslangValidator and replaces the built-in SPIR-V (weft/shader_overrides.h).
+class ShaderWatch {
+ public:
+  explicit ShaderWatch(std::optional<std::filesystem::path> folder);
+  struct Reload {
+    std::vector<std::string> shaders;  // replaced, by file name
+    std::string error;                 // one line naming the shader; nothing was replaced
+  };
+  // Nothing when no watched file changed since the last poll.
+  std::optional<Reload> poll();
+  [[nodiscard]] std::size_t watched_files() const { return files_.size(); }
+
+ private:
+  Result<std::vector<std::uint32_t>> compile(const std::string& name) const;
+  struct File {
+    std::filesystem::path path;
+    std::optional<std::filesystem::file_time_type> time;
+    std::vector<std::string> shaders;  // recompiled when this file changes
+  };
+  std::optional<std::filesystem::path> folder_;
+  std::vector<File> files_;
+  std::map<std::string, std::filesystem::path> compile_file_;
+  std::map<std::string, std::vector<std::filesystem::path>> includes_;
+};
+
 // The window's native handles for gpu::Surface (window_x11.cpp: Xlib stays in that unit).
 gpu::NativeWindow native_window(GLFWwindow* window);
 
@@ -152,7 +185,15 @@ struct RenderJob {
   bool moving = false;
   bool describe = false;  // also compile the graph for the Graph panel
   bool reference = false;  // the comparison's reference image, not a frame to show
+  double budget_ms = 0.0;  // > 0: fit the features to this frame time (weft.governor), many frames
   std::uint64_t id = 0;
+};
+// What the governor chose: per feature (its material type), the preset's knob values.
+struct BudgetOutcome {
+  std::vector<std::pair<std::string, nlohmann::json>> values;
+  std::string summary;  // weft::governor::BudgetResult::summary
+  double measured_ms = 0.0;
+  bool met = false;
 };
 struct RenderResult {
   std::uint64_t id = 0;
@@ -161,6 +202,7 @@ struct RenderResult {
   double ms = 0.0;
   std::optional<renderer::Frame> frame;  // none when it failed: `error` says why
   std::optional<renderer::GraphReport> graph;
+  std::optional<BudgetOutcome> budget;
   std::string error;
 };
 // Renders jobs on its own thread and device (render_thread.cpp); the newest job wins.
@@ -174,6 +216,9 @@ class SceneRenderer {
   std::optional<RenderResult> take();
   [[nodiscard]] double busy_seconds() const;  // how long the current job has run (0 when idle)
   [[nodiscard]] bool idle() const;
+  [[nodiscard]] std::string progress() const;  // the governor's last line while it measures
+  // The next job starts with a new renderer: pipelines are made again from the shaders.
+  void renew_renderer();
 
  private:
   SceneRenderer() = default;
@@ -198,6 +243,8 @@ struct Session {
 
   scene::Scene scene;
   std::optional<std::filesystem::file_time_type> scene_time;
+  std::optional<ShaderWatch> shader_watch;
+  Clock::time_point last_shader_poll{};
   scene::Camera file_camera;  // the file's camera: a reload that changes it resets the view
   std::optional<OrbitCamera> camera;
   Quality quality = Quality::Medium;
@@ -218,6 +265,11 @@ struct Session {
   bool refined = false;         // last_frame is the full-resolution image of what is wanted now
   bool waiting_refine = false;  // the script's `refine`: hold the script until refined
   bool waiting_compare = false;  // the script's `compare`: hold it until the metrics are in
+  // The frame-time budget (Budget panel, script `budget`): the target, whether the governor
+  // is working, and what it chose last.
+  double budget_ms = 500.0;
+  bool budget_running = false;
+  std::string budget_summary;
   std::optional<image::Image8> refined_image;  // the last refined frame, for comparisons
   std::optional<Comparison> comparison;
   Clock::time_point last_motion = Clock::now() - std::chrono::hours(1);
@@ -257,10 +309,12 @@ struct Session {
   Result<void> open();
   Result<void> load(bool first);
   void poll_reload();
+  void poll_shaders();
   void handle_input(double dt);
   void step_script();
   void scene_changed();
   void request_comparison(std::size_t material);
+  void request_budget();
   Result<void> update_comparison();  // posts the reference job once the view is refined  // a knob, material, preset or reload: a new snapshot, a new graph
   void post_job(const Wanted& want);
   Result<void> accept(RenderResult result, int window_w, int window_h);
