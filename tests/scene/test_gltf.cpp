@@ -18,6 +18,7 @@
 
 import weft.core;
 import weft.scene;
+import weft.image;
 
 using namespace scene_test;
 using weft::ErrorKind;
@@ -268,6 +269,30 @@ TEST_CASE("glTF: the shipped sample examples/gltf/spot.glb loads with its materi
   CHECK(std::holds_alternative<sc::PointLight>(s->lights[0]));
   REQUIRE(std::holds_alternative<sc::SpotLight>(s->lights[1]));
   CHECK(std::get<sc::SpotLight>(s->lights[1]).outer_cone_degrees == doctest::Approx(30.0f).epsilon(0.001));
+}
+
+TEST_CASE("glTF: the third-party sample examples/gltf/water_bottle (CC0) loads with its three embedded maps") {
+  const auto root = source_dir();
+  REQUIRE_MESSAGE(root, "WEFT_SOURCE_DIR must name the source tree (ctest sets it)");
+  auto s = sc::load_gltf(*root / "examples/gltf/water_bottle/WaterBottle.glb");
+  REQUIRE_MESSAGE(s.has_value(), s.error().what());
+  CHECK(s->warnings.empty());
+  REQUIRE(s->materials.size() == 1);
+  REQUIRE(s->meshes.size() == 1);
+  CHECK(s->meshes[0].positions.size() == 4857);
+  CHECK(s->meshes[0].uvs.size() == 4857);
+  const sc::StandardMaterial& m = s->materials[0].standard;
+  // Occlusion and metallic-roughness share one packed image; each map decodes at 2048^2
+  // (the packed one is a palette PNG, which the decoder expands).
+  for (const sc::Texture* t : {&m.base_color_texture, &m.metallic_roughness_texture, &m.normal_texture, &m.occlusion_texture}) {
+    REQUIRE_FALSE(t->empty());
+    CHECK(t->mime_type == "image/png");
+    auto img = weft::image::decode_ldr(t->encoded, t->label);
+    REQUIRE_MESSAGE(img, (img ? "" : img.error().what()));
+    CHECK(img->width == 2048);
+    CHECK(img->height == 2048);
+  }
+  CHECK(m.metallic_roughness_texture.encoded == m.occlusion_texture.encoded);
 }
 
 TEST_CASE("glTF: errors name the file and what is wrong") {
