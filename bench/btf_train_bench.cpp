@@ -6,12 +6,19 @@
 // training times.
 //   weft-bench-btf-train [--texels N] [--clusters k,k,...] [--minutes M] [--epochs E]
 //                        [--directions S] [--threads T] [--cache FILE] [--holdout EVERY] [--learning-rate R]
+//                        [--optimizer sgd|adam] [--batch B] [--schedule constant|cosine] [--finetune F]
+//                        [--early-stop EVERY] [--patience P] [--throughput STEPS] [--runs R]
 // --texels: an N x N synthetic twill at the paper's 81 x 81 directions (default 100, the
 // paper's 100 x 100). --clusters: 0 is the plain model (default 0,500,1000,2000; values above
 // the texel count are skipped). Each model trains for --minutes (and at most --epochs) on
 // the light and view directions whose index is not a multiple of --holdout (default 4:
 // 61 x 61 of 81 x 81); RMSE is reported on those pairs, on the held-out pairs (a light or a
-// view never trained on) and on all 6,561.
+// view never trained on) and on all 6,561. The optimiser options are TrainOptions' (the defaults
+// are the paper's recipe: SGD, batch 5, constant rate); --early-stop holds out every EVERY-th
+// trained pair for early stopping (TrainOptions::holdout_every).
+// --throughput STEPS: no table; the plain model's training speed instead: STEPS steps with the
+// first schedule (TrainOptions::batched = false) and the batched one, alternating, --runs times
+// (default 3), each line samples/s, steps/s and epochs/min at the data's size, then medians.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -45,8 +52,10 @@ std::vector<std::uint32_t> parse_list(const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::uint32_t texels = 100, epochs = 1000000, directions = 0, holdout = 4;
-  double minutes = 5.0;
+  std::uint32_t texels = 100, epochs = 1000000, directions = 0, holdout = 4, batch = 5, early_stop = 0, patience = 3;
+  std::uint32_t throughput = 0, runs = 3;
+  double minutes = 5.0, finetune = 0.25;
+  std::string optimizer = "sgd", schedule = "constant";
   float learning_rate = 0.0f;  // 0: the paper's (0.05 plain, 0.08 clustered)
   std::size_t threads = 0;
   std::vector<std::uint32_t> clusters{0, 500, 1000, 2000};
@@ -56,8 +65,12 @@ int main(int argc, char** argv) {
     if (a == "-h" || a == "--help") {
       std::printf("usage: weft-bench-btf-train [--texels N] [--clusters k,k,...] [--minutes M] [--epochs E] [--directions S]\n"
                   "                            [--threads T] [--cache FILE] [--holdout EVERY] [--learning-rate R]\n"
+                  "                            [--optimizer sgd|adam] [--batch B] [--schedule constant|cosine] [--finetune F]\n"
+                  "                            [--early-stop EVERY] [--patience P] [--throughput STEPS] [--runs R]\n"
                   "Trains the plain and clustered neural BTFs on an N x N synthetic twill (default 100, 5 minutes each)\n"
-                  "and prints sizes, ratios, RMSE and times (docs/neural-btf.md).\n");
+                  "and prints sizes, ratios, RMSE and times (docs/neural-btf.md). Defaults: the paper's recipe (SGD,\n"
+                  "batch 5, constant rate). --throughput STEPS times STEPS steps of the first and the batched schedule\n"
+                  "instead, alternating --runs times: samples/s, steps/s, epochs/min.\n");
       return 0;
     }
     if (i + 1 >= argc) {
@@ -75,6 +88,14 @@ int main(int argc, char** argv) {
       else if (a == "--cache") cache = v;
       else if (a == "--holdout") holdout = std::uint32_t(std::stoul(v));
       else if (a == "--learning-rate") learning_rate = std::stof(v);
+      else if (a == "--optimizer") optimizer = v;
+      else if (a == "--schedule") schedule = v;
+      else if (a == "--batch") batch = std::uint32_t(std::stoul(v));
+      else if (a == "--finetune") finetune = std::stod(v);
+      else if (a == "--early-stop") early_stop = std::uint32_t(std::stoul(v));
+      else if (a == "--patience") patience = std::uint32_t(std::stoul(v));
+      else if (a == "--throughput") throughput = std::uint32_t(std::stoul(v));
+      else if (a == "--runs") runs = std::uint32_t(std::stoul(v));
       else {
         std::fprintf(stderr, "unknown option %s\n", a.c_str());
         return 2;
@@ -83,6 +104,11 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "option %s: '%s' is not a number\n", a.c_str(), v.c_str());
       return 2;
     }
+  }
+  if ((optimizer != "sgd" && optimizer != "adam") || (schedule != "constant" && schedule != "cosine") || batch == 0 ||
+      early_stop == 1 || runs == 0) {
+    std::fprintf(stderr, "--optimizer sgd|adam, --schedule constant|cosine, --batch >= 1, --early-stop 0 or >= 2, --runs >= 1\n");
+    return 2;
   }
   // The data: the synthetic twill at the paper's sampling, cached as .btfraw.
   Btf btf;
@@ -107,6 +133,49 @@ int main(int argc, char** argv) {
   std::printf("data: synthetic twill %u x %u texels x %zu x %zu directions, raw %.1f MiB (%.1f s to make or load)\n",
               btf.width, btf.height, btf.lights.size(), btf.views.size(), double(raw) / 1048576.0, data_s);
 
+  if (throughput > 0) {
+    // Both schedules on the same data and options, alternating, so load changes hit both.
+    std::printf("throughput: plain model, %u steps per run, batch %u, %s directions per texel, %zu threads, load %s\n",
+                throughput, batch, directions ? std::to_string(directions).c_str() : "all", threads, [] {
+                  static char buffer[64] = "?";
+                  if (std::FILE* f = std::fopen("/proc/loadavg", "r")) {
+                    if (!std::fgets(buffer, sizeof buffer, f)) buffer[0] = 0;
+                    std::fclose(f);
+                  }
+                  return buffer;
+                }());
+    std::printf("| run | schedule | samples/s | steps/s | epochs/min (%zu texels) |\n|---|---|--:|--:|--:|\n", M);
+    std::vector<double> rates[2];
+    for (std::uint32_t run = 0; run < runs; ++run)
+      for (int batched = 0; batched < 2; ++batched) {
+        TrainOptions o;
+        o.epochs = 1000000;
+        o.batch = batch;
+        o.directions_per_texel = directions;
+        o.learning_rate = learning_rate;
+        o.optimizer = optimizer == "adam" ? Optimizer::Adam : Optimizer::Sgd;
+        o.threads = threads;
+        o.finetune_fraction = 0.0f;
+        o.stop_after_steps = throughput;
+        o.batched = batched == 1;
+        auto r = train_neural_btf(btf, o);
+        if (!r) return std::fprintf(stderr, "%s\n", r.error().what().c_str()), 1;
+        const double samples_per_s = double(r->samples_done) / r->step_seconds;
+        const double steps_per_s = double(r->steps_done) / r->step_seconds;
+        const double steps_per_epoch = std::ceil(double(M) / double(batch));
+        rates[batched].push_back(steps_per_s);
+        std::printf("| %u | %s | %.0f | %.1f | %.2f |\n", run + 1, batched ? "batched" : "first", samples_per_s, steps_per_s,
+                    60.0 * steps_per_s / steps_per_epoch);
+        std::fflush(stdout);
+      }
+    for (auto& v : rates) std::sort(v.begin(), v.end());
+    const double a = rates[0][rates[0].size() / 2], b = rates[1][rates[1].size() / 2];
+    const double steps_per_epoch = std::ceil(double(M) / double(batch));
+    std::printf("\nmedian: first %.1f steps/s (%.2f epochs/min), batched %.1f steps/s (%.2f epochs/min), %.2fx\n", a,
+                60.0 * a / steps_per_epoch, b, 60.0 * b / steps_per_epoch, b / a);
+    return 0;
+  }
+
   std::vector<std::size_t> train_l, train_v;
   for (std::size_t i = 0; i < btf.lights.size(); ++i)
     if (holdout == 0 || i % holdout != 0) train_l.push_back(i);
@@ -123,14 +192,19 @@ int main(int argc, char** argv) {
   std::unique_ptr<bool[]> trained_mask(new bool[trained_pair.size()]), held_mask(new bool[trained_pair.size()]);
   for (std::size_t i = 0; i < trained_pair.size(); ++i) trained_mask[i] = trained_pair[i], held_mask[i] = held_pair[i];
   std::printf("training on %zu x %zu directions, %zu of %zu pairs held out; %.1f min per model, %s directions per texel "
-              "per step, batch 5 texels\n",
+              "per step, batch %u texels, %s, %s rate, fine-tune %.2f%s\n",
               train_l.size(), train_v.size(), btf.samples_per_texel() - train_l.size() * train_v.size(),
-              btf.samples_per_texel(), minutes, directions ? std::to_string(directions).c_str() : "all");
+              btf.samples_per_texel(), minutes, directions ? std::to_string(directions).c_str() : "all", batch,
+              optimizer.c_str(), schedule.c_str(), finetune,
+              early_stop ? weft::format(", early stopping on every {}th trained pair (patience {})", early_stop, patience).c_str()
+                         : "");
 
-  std::printf("the best constant (per-channel mean) scores RMSE %.4f; learning rate %s\n", constant_rmse(btf),
-              learning_rate > 0.0f ? std::to_string(learning_rate).c_str() : "the paper's (0.05 plain, 0.08 clustered)");
-  std::printf("\n| model | k | fp32 KiB (issue's count) | ratio | compact KiB | ratio | RMSE trained | RMSE held-out | RMSE all | epochs | train s | cluster s |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  const double flat = constant_rmse(btf);
+  std::printf("the best constant (per-channel mean) scores RMSE %.4f; learning rate %s\n", flat,
+              learning_rate > 0.0f ? std::to_string(learning_rate).c_str()
+                                   : (optimizer == "adam" ? "Adam's 0.001" : "the paper's (0.05 plain, 0.08 clustered)"));
+  std::printf("\n| model | k | fp32 KiB (issue's count) | ratio | compact KiB | ratio | RMSE trained | RMSE held-out | RMSE all | / constant | epochs | train s | cluster s |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (std::uint32_t k : clusters) {
     if (k > M) {
       std::printf("| clustered | %u | skipped: more clusters than the %zu texels |\n", k, M);
@@ -138,6 +212,12 @@ int main(int argc, char** argv) {
     }
     TrainOptions o;
     o.clusters = k;
+    o.optimizer = optimizer == "adam" ? Optimizer::Adam : Optimizer::Sgd;
+    o.schedule = schedule == "cosine" ? LearningRateSchedule::Cosine : LearningRateSchedule::Constant;
+    o.batch = batch;
+    o.finetune_fraction = float(finetune);
+    o.holdout_every = early_stop;
+    o.patience = patience;
     o.epochs = epochs;
     o.max_seconds = minutes * 60.0;
     o.directions_per_texel = directions;
@@ -145,9 +225,9 @@ int main(int argc, char** argv) {
     o.threads = threads;
     o.progress_interval_s = 30.0;
     o.progress = [k](const TrainProgress& p) {
-      std::fprintf(stderr, "  k=%u epoch %zu step %zu/%zu%s loss %.3g, %.0f %%, ETA %s\n", k, p.epoch + 1, p.step,
-                   p.steps_per_epoch, p.finetuning ? " (latents)" : "", p.loss, 100.0 * p.fraction,
-                   describe_seconds(p.eta_s).c_str());
+      std::fprintf(stderr, "  k=%u epoch %zu step %zu/%zu%s loss %.3g, lr %.3g, held-out %.4f, %.0f %%, ETA %s\n", k,
+                   p.epoch + 1, p.step, p.steps_per_epoch, p.finetuning ? " (latents)" : "", p.loss, p.learning_rate,
+                   p.validation_rmse, 100.0 * p.fraction, describe_seconds(p.eta_s).c_str());
     };
     auto r = train_neural_btf(*train_set, o);
     if (!r) return std::fprintf(stderr, "%s\n", r.error().what().c_str()), 1;
@@ -159,11 +239,11 @@ int main(int argc, char** argv) {
     // Every pair is trained or held out: the whole RMSE follows from the two.
     const double n_train = double(train_l.size() * train_v.size()), n_all = double(btf.samples_per_texel());
     const double e_all = std::sqrt((n_train * *e_train * *e_train + (n_all - n_train) * *e_held * *e_held) / n_all);
-    std::printf("| %s | %u | %.1f (dec %.1f + lat %.1f + ids %.1f + scales %.1f) | 1:%.0f | %.1f | 1:%.0f | %.4f | %.4f | %.4f | %zu | %.0f | %.1f |\n",
+    std::printf("| %s | %u | %.1f (dec %.1f + lat %.1f + ids %.1f + scales %.1f) | 1:%.0f | %.1f | 1:%.0f | %.4f | %.4f | %.4f | %.3f | %zu%s | %.0f | %.1f |\n",
                 k ? "clustered + scales" : "plain", r->clusters, kib(full.total()), kib(full.decoder), kib(full.latents),
                 kib(full.ids), kib(full.scales), double(raw) / double(full.total()), kib(compact.total()),
-                double(raw) / double(compact.total()), *e_train, *e_held, e_all, r->epochs_done, r->seconds,
-                r->cluster_seconds);
+                double(raw) / double(compact.total()), *e_train, *e_held, e_all, e_all / flat, r->epochs_done,
+                early_stop ? weft::format(" (kept {})", r->best_epoch).c_str() : "", r->seconds, r->cluster_seconds);
     std::fflush(stdout);
   }
   return 0;

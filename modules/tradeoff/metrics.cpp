@@ -64,7 +64,7 @@ Result<ImageError> compare(const image::Image8& render, const image::Image8& ref
   e.pixels = mask.count();
   if (e.pixels == 0) return fail(ErrorKind::InvalidArgument, "the mask covers no pixel: the feature drew nothing");
   const auto a = image::from_srgb8(render), b = image::from_srgb8(reference);
-  double sum = 0.0, largest = 0.0;
+  double sum = 0.0, largest = 0.0, reference_sum = 0.0;
   std::uint32_t x0 = mask.width, y0 = mask.height, x1 = 0, y1 = 0;
   for (std::uint32_t y = 0; y < mask.height; ++y)
     for (std::uint32_t x = 0; x < mask.width; ++x) {
@@ -73,10 +73,12 @@ Result<ImageError> compare(const image::Image8& render, const image::Image8& ref
       for (std::uint32_t c = 0; c < 3; ++c) {
         const double d = double(a.at(x, y, c)) - double(b.at(x, y, c));
         sum += d * d;
+        reference_sum += double(b.at(x, y, c)) * double(b.at(x, y, c));
         largest = std::max(largest, std::abs(d));
       }
     }
   e.rmse = std::sqrt(sum / double(e.pixels * 3));
+  e.relative_rmse = reference_sum > 0.0 ? std::sqrt(sum / reference_sum) : 0.0;
   e.max_diff = largest;
   e.psnr_db = e.rmse > 0.0 ? 20.0 * std::log10(1.0 / e.rmse) : std::numeric_limits<double>::infinity();
   // SSIM needs whole windows: over the mask's bounding box, in RGB (weft.image takes luminance).

@@ -77,14 +77,14 @@ std::vector<std::size_t> by_cost(std::span<const Row> rows, CostAxis axis) {
 std::string csv(std::span<const Row> rows, const ReportInfo& info) {
   std::string out =
       "feature,setting,group,quality,preset,reference,values,frame_ms,gpu_ms,feature_gpu_ms,process_cpu_ms,wall_ms,"
-      "cold_frame_ms,rmse_linear,psnr_db,ssim,max_diff,pixels,pareto\n";
+      "cold_frame_ms,rmse_linear,relative_rmse,psnr_db,ssim,max_diff,pixels,pareto\n";
   for (const auto& r : rows) {
     const auto& s = r.setting;
-    const std::array<std::string, 19> fields = {
+    const std::array<std::string, 20> fields = {
         info.feature, s.label, s.group, std::string(to_string(s.quality)), preset_name(r),
         s.is_reference ? "1" : "0", s.values.dump(), number(r.frame_ms, 3), number(r.gpu_ms, 3),
         number(r.feature_gpu_ms, 3), number(r.process_cpu_ms, 3), number(r.wall_ms, 3), number(r.cold_frame_ms, 3),
-        number(r.error.rmse, 6), number(r.error.psnr_db, 2),
+        number(r.error.rmse, 6), number(r.error.relative_rmse, 5), number(r.error.psnr_db, 2),
         number(r.error.ssim, 5), number(r.error.max_diff, 5), std::to_string(r.error.pixels), r.pareto ? "1" : "0"};
     for (std::size_t i = 0; i < fields.size(); ++i) out += (i ? "," : "") + csv_field(fields[i]);
     out += "\n";
@@ -98,14 +98,15 @@ std::string markdown(std::span<const Row> rows, const ReportInfo& info) {
                       "timestamps; cold: the first frame's wall time with empty caches. Error: linear RGB against "
                       "the reference over {}.\n\n",
                       info.command, info.device, to_string(info.cost), info.frame_clock, info.frames, info.mask_note);
-  out += "| setting | frame ms | GPU ms | cold frame ms | RMSE (linear) | PSNR dB | SSIM | max diff | Pareto |\n";
-  out += "|---|---:|---:|---:|---:|---:|---:|---:|:---:|\n";
+  out += "| setting | frame ms | GPU ms | cold frame ms | RMSE (linear) | relative RMSE | PSNR dB | SSIM | max diff | Pareto |\n";
+  out += "|---|---:|---:|---:|---:|---:|---:|---:|---:|:---:|\n";
   for (auto i : by_cost(rows, info.cost)) {
     const auto& r = rows[i];
     std::string label = r.setting.label;
     if (r.setting.is_reference || r.setting.preset) label = "**" + label + "**";
-    out += weft::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", label, number(r.frame_ms, 1),
+    out += weft::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", label, number(r.frame_ms, 1),
                         number(r.gpu_ms, 1), number(r.cold_frame_ms, 0), number(r.error.rmse, 5),
+                        weft::format("{:.1f} %", 100.0 * r.error.relative_rmse),
                         number(r.error.psnr_db, 1), number(r.error.ssim, 4), number(r.error.max_diff, 3),
                         r.pareto ? "●" : "");
   }

@@ -111,6 +111,7 @@ Mask full_mask(std::uint32_t width, std::uint32_t height);
 
 struct ImageError {
   double rmse = 0.0;      // linear RGB (sRGB decoded) over the mask's pixels
+  double relative_rmse = 0.0;  // rmse / the reference's RMS over the same pixels (0 when the reference is black)
   double psnr_db = 0.0;   // from that RMSE, peak 1; +inf when identical
   double ssim = 1.0;      // weft.image's SSIM over the mask's bounding box
   double max_diff = 0.0;  // largest linear difference in the mask

@@ -22,6 +22,7 @@ import weft.graph;
 import weft.frame;
 import weft.scene;
 import weft.feature;
+import weft.btf;
 import weft.btf.model;
 
 namespace weft::passes {
@@ -77,11 +78,21 @@ class NeuralBtfFeature final : public FeaturePass {
   Result<std::shared_ptr<NeuralBtfGpuMaterial>> material_for(const scene::Material& material, Quality quality) {
     auto parsed = btf::parse_neural_btf_material(material, quality);
     if (!parsed) return std::unexpected(parsed.error());
-    if (parsed->mode == btf::BtfMode::Reference)
-      return fail(ErrorKind::Unsupported,
-                  "neural_btf material '{}' ({}.mode): the reference mode needs weft.btf's BTF loader, which is not in "
-                  "this build yet",
-                  material.name, material.json_path);
+    if (parsed->mode == btf::BtfMode::Reference) {
+      auto reference = reference_for(*parsed);
+      if (!reference)
+        return with_context(weft::format("neural_btf material '{}' ({}.btf)", material.name, material.json_path),
+                            reference.error());
+      Hasher h;
+      h.str(material.name).str(material.params.dump()).str(material.base_dir.string()).str(material.json_path);
+      h.value(std::uint8_t(quality)).value(*reference);
+      const std::uint64_t key = h.digest();
+      if (auto it = materials_.find(key); it != materials_.end()) return it->second;
+      auto gpu_material = pass_.create_material(*device_, *parsed, **reference);
+      if (!gpu_material) return std::unexpected(gpu_material.error());
+      materials_.emplace(key, *gpu_material);
+      return *gpu_material;
+    }
     auto model = model_for(parsed->model);
     if (!model) return with_context(weft::format("neural_btf material '{}' ({}.model)", material.name, material.json_path),
                                     model.error());
@@ -115,8 +126,48 @@ class NeuralBtfFeature final : public FeaturePass {
     return models_.emplace(key, std::make_unique<GpuBtfModel>(std::move(*buffer))).first->second.get();
   }
 
+  // The raw BTF of a reference-mode material on the GPU: a .btfraw / database folder (again
+  // when the file changes) or the synthetic fabric the material names (made once).
+  Result<const GpuBtfReference*> reference_for(const btf::NeuralBtfParams& params) {
+    Hasher h;
+    if (params.btf_synthetic) {
+      const auto& s = *params.btf_synthetic;
+      h.str("synthetic").str(s.weave).value(s.width).value(s.height).value(s.seed);
+    } else {
+      std::error_code ec;
+      const auto stamp = std::filesystem::last_write_time(params.btf, ec);
+      h.str(params.btf.string()).value(stamp.time_since_epoch().count());
+    }
+    const std::uint64_t key = h.digest();
+    if (auto it = references_.find(key); it != references_.end()) return it->second.get();
+    std::string source;
+    Result<btf::Btf> data = std::unexpected(Error{ErrorKind::InvalidArgument, "no BTF"});
+    if (params.btf_synthetic) {
+      const auto& s = *params.btf_synthetic;
+      btf::SyntheticOptions so;
+      WEFT_TRY(so.weave, btf::parse_weave(s.weave));
+      so.width = s.width, so.height = s.height, so.seed = s.seed;
+      source = weft::format("synthetic {} {}x{} seed {}", s.weave, s.width, s.height, s.seed);
+      log::info(weft::format("neural BTF reference: making the {}", source));
+      data = btf::synthetic_btf(so);
+    } else {
+      source = params.btf.string();
+      log::info(weft::format("neural BTF reference: loading {}", source));
+      data = btf::load_btf(params.btf);
+    }
+    if (!data) return std::unexpected(data.error());
+    auto uploaded = upload_reference(*device_, *data, "neural_btf_raw");
+    if (!uploaded) return with_context(source, uploaded.error());
+    if (uploaded->cropped)
+      warnings_.push_back(weft::format("neural_btf reference {}: {} x {} texels do not fit one storage buffer; the "
+                                       "reference tiles its top-left {} x {}",
+                                       source, data->width, data->height, uploaded->crop.width, uploaded->crop.height));
+    return references_.emplace(key, std::make_unique<GpuBtfReference>(std::move(*uploaded))).first->second.get();
+  }
+
   gpu::Device* device_;
   NeuralBTFMaterial pass_;
+  std::map<std::uint64_t, std::unique_ptr<GpuBtfReference>> references_;
   std::map<std::uint64_t, std::unique_ptr<GpuBtfModel>> models_;  // by path, time and size
   std::map<std::uint64_t, std::shared_ptr<NeuralBtfGpuMaterial>> materials_;
   // This frame's inputs, alive until the graph has executed.
@@ -164,9 +215,11 @@ const FeatureDescriptor& neural_btf_feature() {
       const auto p = btf::neural_btf_quality_preset(q);
       return {{"filter", std::string(btf::to_string(p.filter))}, {"ambient", p.ambient}};
     };
-    d.reference = {{"filter", "bilinear"}, {"ambient", true}, {"shadow", true}};
-    d.reference_why = "bilinear texels, ambient and shadow: every decode the material can make (the model's "
-                      "error against the raw BTF is weft-bench-btf-train's)";
+    // The raw BTF the model compresses (the material's "btf"), sampled by the same fragment
+    // stage with every tap the material can make: the error is the model's and the knobs'.
+    d.reference = {{"mode", "reference"}, {"filter", "bilinear"}, {"ambient", true}, {"shadow", true}};
+    d.reference_why = "the raw BTF (the material's \"btf\") sampled as sample_reference samples it, bilinear texels, "
+                      "ambient and shadow: the same pass with the data in place of the decoder";
     d.cost = CostAxis::Frame;
     d.grids = {{"filter", "ambient"}};
     return d;

@@ -1,7 +1,9 @@
 // weft.pass.neural_btf — NeuralBTFMaterial: a neural BTF (weft.btf.model, a .wbtf file)
 // decoded per fragment. The decoder MLP runs in the fragment shader with every weight, latent,
 // cluster id and scale in one read-only storage buffer; ω_i (the key light, and optionally
-// ω_i = n for the ambient term) and ω_o go into the surface's tangent frame. Also here: the
+// ω_i = n for the ambient term) and ω_o go into the surface's tangent frame. The reference
+// mode samples the raw BTF (in a storage buffer, as weft::btf::sample_reference) in the same
+// fragment stage, so the two images compare pixel for pixel. Also here: the
 // decode kernel (a compute shader with the same decoder) that tests compare with the CPU
 // decode and the benchmark times, and the feature descriptor (neural_btf_feature).
 // docs/neural-btf.md, "The material and its shader", has the choices and the measurements.
@@ -18,6 +20,7 @@ module;
 #include <expected>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -29,6 +32,7 @@ import weft.graph;
 import weft.frame;
 import weft.scene;
 import weft.feature;
+import weft.btf;
 import weft.btf.model;
 
 export namespace weft::btf {
@@ -45,7 +49,16 @@ struct NeuralBtfParams {
   std::filesystem::path model;  // .wbtf, relative to the scene file
   vec2 uv_scale{1.0f};          // how many times the texel grid repeats over the mesh's UVs
   BtfMode mode = BtfMode::Neural;
-  std::filesystem::path btf;    // the raw BTF the reference mode samples
+  std::filesystem::path btf;    // the raw BTF the reference mode samples (.btfraw or a database folder)
+  // "btf": "synthetic:<weave>:<W>x<H>[:<seed>]" names weft's synthetic fabric (synthetic_btf
+  // with that weave, size and seed, the rest default) instead of a file: what `weft bake btf
+  // --synthetic` trained on, so a baked model can be compared with its own data.
+  struct Synthetic {
+    std::string weave = "twill";
+    std::uint32_t width = 0, height = 0;
+    std::uint64_t seed = 1;
+  };
+  std::optional<Synthetic> btf_synthetic;
   float exposure = 1.0f;        // multiplies the result
   vec3 tint{1.0f};              // multiplies the result per channel
   // Quality knobs (each costs decodes per pixel; the presets set them unless the material does):
@@ -96,6 +109,25 @@ struct GpuBtfModel {
 Result<GpuBtfModel> upload_model(gpu::Device& device, const btf::NeuralBtf& model, std::string_view label,
                                  bool allow_unrolled = false);
 
+// The reference mode's data (btf_reference.glsl): the raw BTF's directions and samples in one
+// std430 buffer of 32-bit words. A BTF larger than `max_bytes` is cropped to its top-left
+// texels, keeping the aspect ratio (the largest crop that fits); `crop` says which texels.
+// InvalidArgument for an invalid BTF, Unsupported when not even one texel fits.
+struct PackedBtfReference {
+  std::vector<std::uint32_t> words;
+  btf::Crop crop;  // width, height: the texel grid the shader tiles
+  bool cropped = false;
+};
+Result<PackedBtfReference> pack_reference(const btf::Btf& btf, std::uint64_t max_bytes);
+
+// The raw BTF on the GPU (pack_reference with the device's storage-buffer range, at most 1 GiB).
+struct GpuBtfReference {
+  gpu::Buffer buffer;
+  btf::Crop crop;
+  bool cropped = false;
+};
+Result<GpuBtfReference> upload_reference(gpu::Device& device, const btf::Btf& btf, std::string_view label);
+
 // One decode query: ω_i and ω_o in the tangent frame (need not be normalised) and a texel.
 struct DecodeQuery {
   vec3 light;
@@ -140,6 +172,10 @@ class NeuralBTFMaterial {
   // `model` (from upload_model) must outlive the material.
   Result<std::shared_ptr<NeuralBtfGpuMaterial>> create_material(gpu::Device& device, const btf::NeuralBtfParams& params,
                                                                 const GpuBtfModel& model) const;
+  // The reference mode: the raw BTF (from upload_reference, which must outlive the material)
+  // sampled where the neural mode decodes, by the same fragment stage otherwise.
+  Result<std::shared_ptr<NeuralBtfGpuMaterial>> create_material(gpu::Device& device, const btf::NeuralBtfParams& params,
+                                                                const GpuBtfReference& reference) const;
   // `draws` and `materials` must outlive the graph's execution; the materials' model buffers
   // are imported and declared as storage reads.
   Result<void> add(RenderGraph& graph, std::span<const NeuralBtfDraw> draws,

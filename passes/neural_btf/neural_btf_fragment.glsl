@@ -10,7 +10,15 @@
 #include "neural_btf_common.glsl"
 #define BTF_MODEL_SET 1
 #define BTF_MODEL_BINDING 0
+#ifdef BTF_REFERENCE  // the raw BTF in place of the decoder (neural_btf_reference.frag)
+#include "btf_reference.glsl"
+#define BTF_GRID btf_reference_grid()
+#define BTF_EVALUATE(texel, si, so) btf_reference(texel, si, so)
+#else
 #include "btf_decode.glsl"
+#define BTF_GRID btf_model.shape.zw
+#define BTF_EVALUATE(texel, si, so) btf_decode(texel, si, so)
+#endif
 layout(location = 0) in vec3 world_position;
 layout(location = 1) in vec3 world_normal;
 layout(location = 2) in vec4 world_tangent;
@@ -99,7 +107,7 @@ void main() {
   vec3 wi = vec3(dot(l, t), dot(l, b), dot(l, n));
   vec2 so = btf_stereographic(wo);
 
-  uvec2 grid = btf_model.shape.zw;
+  uvec2 grid = BTF_GRID;
   vec2 st = uv * draw.uv_scale.xy * vec2(grid);
   bool bilinear = (flags & FLAG_BILINEAR) != 0;
 
@@ -113,7 +121,7 @@ void main() {
   }
   vec3 color = vec3(0.0);
   [[dont_unroll]] for (uint i = 0u; i < tap_count; ++i)
-    color += btf_decode(tap_texel[i], tap_si[i], so) * tap_weight[i];
+    color += BTF_EVALUATE(tap_texel[i], tap_si[i], so) * tap_weight[i];
   color *= draw.tint.rgb * draw.uv_scale.w;
   if (debug_view == DEBUG_TEXEL) color = hash_colour(texel_at(ivec2(floor(st)), grid));
   else if (debug_view == DEBUG_UV) color = vec3(fract(st / vec2(grid)), 0.0);

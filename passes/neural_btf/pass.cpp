@@ -211,8 +211,9 @@ Result<std::vector<vec4>> BtfDecodeKernel::decode(gpu::Device& device, const Gpu
 
 struct NeuralBtfGpuMaterial {
   btf::NeuralBtfParams params;
-  const gpu::Buffer* model = nullptr;
+  const gpu::Buffer* model = nullptr;  // the packed model, or the raw BTF (reference)
   gpu::BindGroup group;
+  bool reference = false;
 };
 
 struct NeuralBTFMaterial::State {
@@ -222,6 +223,7 @@ struct NeuralBTFMaterial::State {
   // The generic decoder for any shape: the unrolled paper-shape variant measured slower in
   // the fragment shader on lavapipe (docs/neural-btf.md), so only the decode kernel has it.
   gpu::RenderPipeline pipeline;
+  gpu::RenderPipeline reference_pipeline;  // the raw BTF sampled instead (btf_reference.glsl)
   gpu::Sampler shadow_compare;
 };
 
@@ -234,6 +236,10 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
   auto fs = device.create_shader_module(
       {.label = "neural_btf.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_frag()});
   if (!fs) return std::unexpected(fs.error());
+  auto reference_fs = device.create_shader_module({.label = "neural_btf_reference.frag",
+                                                   .stage = ShaderStage::Fragment,
+                                                   .spirv = shaders::neural_btf_reference_frag()});
+  if (!reference_fs) return std::unexpected(reference_fs.error());
   auto frame_layout = device.create_bind_group_layout(
       {.label = "neural-btf-frame",
        .entries = {{0, BindingType::UniformBuffer, ShaderStage::Vertex | ShaderStage::Fragment},
@@ -248,11 +254,15 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
   if (!layout) return std::unexpected(layout.error());
   auto pipeline = frame::create_lit_mesh_pipeline(device, "neural-btf", *layout, *vs, *fs, color_format, depth_format);
   if (!pipeline) return std::unexpected(pipeline.error());
+  auto reference_pipeline = frame::create_lit_mesh_pipeline(device, "neural-btf-reference", *layout, *vs, *reference_fs,
+                                                            color_format, depth_format);
+  if (!reference_pipeline) return std::unexpected(reference_pipeline.error());
   auto shadow_compare = frame::create_shadow_compare_sampler(device, "neural-btf-shadow");
   if (!shadow_compare) return std::unexpected(shadow_compare.error());
   NeuralBTFMaterial pass;
   pass.state_ = std::make_shared<State>(State{std::move(*frame_layout), std::move(*material_layout), std::move(*layout),
-                                              std::move(*pipeline), std::move(*shadow_compare)});
+                                              std::move(*pipeline), std::move(*reference_pipeline),
+                                              std::move(*shadow_compare)});
   return pass;
 }
 
@@ -262,8 +272,17 @@ Result<std::shared_ptr<NeuralBtfGpuMaterial>> NeuralBTFMaterial::create_material
   auto group = device.create_bind_group(
       {.label = "neural-btf-model", .layout = &state_->material_layout, .entries = {gpu::bind(0, model.buffer)}});
   if (!group) return std::unexpected(group.error());
-  return std::make_shared<NeuralBtfGpuMaterial>(
-      NeuralBtfGpuMaterial{params, &model.buffer, std::move(*group)});
+  return std::make_shared<NeuralBtfGpuMaterial>(NeuralBtfGpuMaterial{params, &model.buffer, std::move(*group), false});
+}
+
+Result<std::shared_ptr<NeuralBtfGpuMaterial>> NeuralBTFMaterial::create_material(gpu::Device& device,
+                                                                             const btf::NeuralBtfParams& params,
+                                                                             const GpuBtfReference& reference) const {
+  auto group = device.create_bind_group({.label = "neural-btf-reference",
+                                         .layout = &state_->material_layout,
+                                         .entries = {gpu::bind(0, reference.buffer)}});
+  if (!group) return std::unexpected(group.error());
+  return std::make_shared<NeuralBtfGpuMaterial>(NeuralBtfGpuMaterial{params, &reference.buffer, std::move(*group), true});
 }
 
 Result<void> NeuralBTFMaterial::add(RenderGraph& graph, std::span<const NeuralBtfDraw> draws,
@@ -290,10 +309,15 @@ Result<void> NeuralBTFMaterial::add(RenderGraph& graph, std::span<const NeuralBt
     if (!group) return ctx.encoder().report_error(group.error());
     const auto& frame_group = ctx.keep(std::move(*group));
     gpu::RenderPassEncoder& pass = scene.pass;
-    pass.set_pipeline(state->pipeline);
-    pass.set_bind_group(0, frame_group);
+    const gpu::RenderPipeline* bound = nullptr;
     for (const NeuralBtfDraw& draw : draws) {
       const NeuralBtfGpuMaterial& mat = *materials[draw.material];
+      const gpu::RenderPipeline* pipeline = mat.reference ? &state->reference_pipeline : &state->pipeline;
+      if (pipeline != bound) {
+        pass.set_pipeline(*pipeline);
+        pass.set_bind_group(0, frame_group);
+        bound = pipeline;
+      }
       const btf::NeuralBtfParams& m = mat.params;
       const int flags = (m.ambient ? flag_ambient : 0) | (m.filter == btf::TexelFilter::Bilinear ? flag_bilinear : 0) |
                         (m.shadow ? flag_shadow : 0);

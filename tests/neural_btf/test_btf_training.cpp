@@ -370,11 +370,74 @@ TEST_CASE("a fixed seed gives identical weights, whatever the thread count") {
   o.seed = 2;
   const TrainResult c = trained(btf, o);
   CHECK(a.network.parameters != c.network.parameters);
+  // The first schedule (blocks of one texel, encoder on one thread) too, and the two schedules
+  // agree up to rounding.
+  o.seed = 1;
+  o.batched = false;
+  o.threads = 1;
+  const TrainResult d = trained(btf, o);
+  o.threads = 2;
+  const TrainResult e = trained(btf, o);
+  CHECK(d.network.parameters == e.network.parameters);
+  CHECK(d.model.latents == e.model.latents);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < d.network.parameters.size(); ++i)
+    worst = std::max(worst, double(std::abs(d.network.parameters[i] - a.network.parameters[i])));
+  CHECK(worst < 1e-3);
+}
+
+TEST_CASE("Adam, a cosine schedule and early stopping: thread-independent, and the kept model is the best one measured") {
+  const Btf btf = tiny_fabric();
+  TrainOptions o;
+  o.optimizer = Optimizer::Adam;
+  o.learning_rate = 0.003f;
+  o.schedule = LearningRateSchedule::Cosine;
+  o.epochs = 8;
+  o.batch = 4;
+  o.directions_per_texel = 30;
+  o.holdout_every = 5;  // pairs 2, 7, 12, ... of the 81 never train
+  o.patience = 2;
+  o.finetune_fraction = 0.5f;
+  std::vector<double> measured, rates;
+  o.progress_interval_s = 1e9;
+  o.progress = [&](const TrainProgress& p) {
+    if (p.validation_rmse >= 0.0) measured.push_back(p.validation_rmse);
+    rates.push_back(p.learning_rate);
+  };
+  o.threads = 1;
+  const TrainResult a = trained(btf, o);
+  o.progress = {};
+  o.threads = 2;
+  const TrainResult b = trained(btf, o);
+  CHECK(a.network.parameters == b.network.parameters);
+  CHECK(a.model.latents == b.model.latents);
+  CHECK(a.validation_rmse == b.validation_rmse);
+  REQUIRE_FALSE(measured.empty());
+  // The kept model's RMSE is the lowest measured, and is what decode() scores on the held-out pairs.
+  CHECK(a.validation_rmse == doctest::Approx(*std::min_element(measured.begin(), measured.end())));
+  CHECK(a.best_epoch >= 1);
+  CHECK(a.best_epoch <= a.epochs_done);
+  double sq = 0.0;
+  std::size_t n = 0;
+  for (std::size_t t = 0; t < btf.texels(); ++t)
+    for (std::size_t pr = 2; pr < btf.samples_per_texel(); pr += 5) {
+      const std::size_t l = pr / btf.views.size(), v = pr % btf.views.size();
+      const vec3 got = decode(a.model, t, to_vector(btf.lights[l]), to_vector(btf.views[v]));
+      const vec3 want = sample(btf, t, l, v);
+      for (int c = 0; c < 3; ++c) sq += double(got[c] - want[c]) * double(got[c] - want[c]), ++n;
+    }
+  CHECK(std::sqrt(sq / double(n)) == doctest::Approx(a.validation_rmse).epsilon(1e-3));
+  // The cosine schedule falls from the rate towards its floor.
+  REQUIRE(rates.size() >= 2);
+  CHECK(rates.back() < rates.front());
+  CHECK(rates.back() >= 0.05 * 0.003 * 0.999);
 }
 
 TEST_CASE("checkpoint resume equals uninterrupted training, and a foreign checkpoint is refused") {
   const Btf btf = tiny_fabric();
   const auto file = std::filesystem::temp_directory_path() / "weft_test_btf_training.ckpt";
+  for (const bool adam : {false, true}) {
+  CAPTURE(adam);
   std::filesystem::remove(file);
   TrainOptions o;
   o.epochs = 4;
@@ -382,6 +445,12 @@ TEST_CASE("checkpoint resume equals uninterrupted training, and a foreign checkp
   o.directions_per_texel = 20;
   o.finetune_fraction = 0.5f;  // epochs 0-1 autoencoder, 2-3 latents + decoder
   o.threads = 2;
+  if (adam) {  // Adam's moments, the schedule and early stopping's best model survive the checkpoint too
+    o.optimizer = Optimizer::Adam;
+    o.schedule = LearningRateSchedule::Cosine;
+    o.holdout_every = 4;
+    o.patience = 0;
+  }
   const TrainResult whole = trained(btf, o);
 
   o.checkpoint = file;
@@ -400,12 +469,14 @@ TEST_CASE("checkpoint resume equals uninterrupted training, and a foreign checkp
   CHECK(rest.network.running_mean == whole.network.running_mean);
   CHECK(rest.model.latents == whole.model.latents);
   CHECK(rest.final_loss == whole.final_loss);
+  CHECK(rest.validation_rmse == whole.validation_rmse);
 
   o.seed = 5;  // other options: the checkpoint does not apply
   auto foreign = train_neural_btf(btf, o);
   REQUIRE_FALSE(foreign);
   CHECK(foreign.error().message.find("belongs to other data or options") != std::string::npos);
   std::filesystem::remove(file);
+  }
 }
 
 TEST_CASE("bad options are named") {

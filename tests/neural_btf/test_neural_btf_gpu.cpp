@@ -2,9 +2,11 @@
 // decoder (the decode kernel, same GLSL as the material) against the CPU decode on a grid of
 // texels and directions including θ = 0 and θ = 90°; a flat quad seen straight on through the
 // renderer against the CPU decode per pixel (key light, then the ambient term alone); the
-// renderer adds the pass only for scenes with neural_btf materials; material errors.
+// renderer adds the pass only for scenes with neural_btf materials; material errors; the
+// reference mode (the raw BTF in a storage buffer) against the CPU sample_reference per pixel.
 #include <doctest/doctest.h>
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -16,6 +18,7 @@ import weft.gpu;
 import weft.image;
 import weft.scene;
 import weft.renderer;
+import weft.btf;
 import weft.btf.model;
 import weft.pass.neural_btf;
 import weft.test.gpu;
@@ -89,7 +92,7 @@ struct PixelInputs {
   vec3 light, view;
 };
 PixelInputs pixel_inputs(const scene::Scene& s, std::uint32_t x, std::uint32_t y, std::uint32_t size, vec3 towards_light,
-                         const btf::NeuralBtf& m, float uv_scale) {
+                         glm::uvec2 grid, float uv_scale) {
   const mat4 inverse_vp = glm::inverse(s.camera.projection(1.0f) * s.camera.view());
   const vec2 ndc((x + 0.5f) / float(size) * 2.0f - 1.0f, (y + 0.5f) / float(size) * 2.0f - 1.0f);
   const vec4 a = inverse_vp * vec4(ndc, 0.0f, 1.0f), b = inverse_vp * vec4(ndc, 1.0f, 1.0f);
@@ -100,11 +103,11 @@ PixelInputs pixel_inputs(const scene::Scene& s, std::uint32_t x, std::uint32_t y
   const vec2 uv(p.x / 2.0f + 0.5f, -p.y / 2.0f + 0.5f);
   PixelInputs in;
   if (uv.x < 0.02f || uv.x > 0.98f || uv.y < 0.02f || uv.y > 0.98f) return in;
-  const vec2 st = uv * uv_scale * vec2(float(m.width), float(m.height));
+  const vec2 st = uv * uv_scale * vec2(grid);
   const vec2 f = st - glm::floor(st);
   if (glm::any(glm::lessThan(f, vec2(0.03f))) || glm::any(glm::greaterThan(f, vec2(0.97f)))) return in;
-  const int tx = int(std::floor(st.x)) % int(m.width), ty = int(std::floor(st.y)) % int(m.height);
-  in.texel = std::size_t(ty) * m.width + std::size_t(tx);
+  const int tx = int(std::floor(st.x)) % int(grid.x), ty = int(std::floor(st.y)) % int(grid.y);
+  in.texel = std::size_t(ty) * grid.x + std::size_t(tx);
   const mat3 rotate(s.objects[0].transform);
   const vec3 n = glm::normalize(rotate * s.meshes[0].normals[0]);
   const vec4 tangent = s.meshes[0].tangents[0];
@@ -189,7 +192,7 @@ TEST_CASE("a straight-on quad through the renderer: every covered pixel is the C
   int checked = 0, lit = 0;
   for (std::uint32_t y = 0; y < 64; ++y)
     for (std::uint32_t x = 0; x < 64; ++x) {
-      const PixelInputs in = pixel_inputs(s, x, y, 64, towards_light, model, 1.0f);
+      const PixelInputs in = pixel_inputs(s, x, y, 64, towards_light, {model.width, model.height}, 1.0f);
       if (!in.ok) continue;
       const vec3 expected = glm::clamp(btf::decode(model, in.texel, in.light, in.view), vec3(0.0f), vec3(1.0f));
       for (int c = 0; c < 3; ++c) {
@@ -219,7 +222,7 @@ TEST_CASE("the ambient term alone: a constant sky c gives decode(ω_i = n, ω_o)
   int checked = 0;
   for (std::uint32_t y = 0; y < 64; ++y)
     for (std::uint32_t x = 0; x < 64; ++x) {
-      const PixelInputs in = pixel_inputs(s, x, y, 64, vec3(0, 0, 1), model, 2.0f);
+      const PixelInputs in = pixel_inputs(s, x, y, 64, vec3(0, 0, 1), {model.width, model.height}, 2.0f);
       if (!in.ok) continue;
       const vec3 expected = glm::clamp(btf::decode(model, in.texel, vec3(0, 0, 1), in.view) * (pi * sky), vec3(0.0f),
                                        vec3(1.0f));
@@ -230,6 +233,83 @@ TEST_CASE("the ambient term alone: a constant sky c gives decode(ω_i = n, ω_o)
     }
   CHECK(checked > 1000);
   weft::test::expect_no_validation_messages();
+}
+
+// A 5 x 3 texel BTF at the UBO2003 directions whose samples are smooth in the directions and
+// distinct per texel, all in (0.05, 0.95) so an 8-bit frame shows them.
+btf::Btf displayable_btf() {
+  btf::Btf b;
+  b.width = 5, b.height = 3;
+  b.lights = b.views = btf::ubo2003_directions();
+  b.rgb.resize(b.texels() * b.abrdf_floats());
+  for (std::size_t t = 0; t < b.texels(); ++t)
+    for (std::size_t l = 0; l < b.lights.size(); ++l)
+      for (std::size_t v = 0; v < b.views.size(); ++v) {
+        const vec3 wl = btf::to_vector(b.lights[l]), wv = btf::to_vector(b.views[v]);
+        for (std::size_t c = 0; c < 3; ++c)
+          b.rgb[((t * b.lights.size() + l) * b.views.size() + v) * 3 + c] =
+              0.5f + 0.4f * std::sin(1.7f * float(t) + 2.3f * float(c) + 1.9f * wl.x - 1.3f * wl.y + 2.1f * wv.x * wv.y + wv.z);
+      }
+  return b;
+}
+
+TEST_CASE("the reference mode: every covered pixel is the CPU sample_reference of the raw BTF times the light") {
+  const btf::Btf data = displayable_btf();
+  const auto path = temp_dir() / "reference.btfraw";
+  REQUIRE(btf::save_btf(data, path));
+  const vec3 towards_light = glm::normalize(vec3(0.5f, -0.2f, 1.0f));
+  const std::string lights = weft::format(R"([{{"type": "directional", "direction": [{}, {}, {}], "intensity": 1}}])",
+                                          -towards_light.x, -towards_light.y, -towards_light.z);
+  auto s = load(quad_scene(weft::format(R"({{"type": "neural_btf", "mode": "reference", "btf": "{}", "ambient": false,
+                                           "shadow": false, "filter": "nearest"}})",
+                                        path.string()),
+                           lights));
+  auto frame = shared_renderer().render(s, {.quality = Quality::Medium, .aces = false});
+  REQUIRE_MESSAGE(frame, (frame ? "" : frame.error().message));
+  CHECK(std::find(frame->passes.begin(), frame->passes.end(), "neural_btf") != frame->passes.end());
+  int checked = 0;
+  double largest = 0.0;
+  for (std::uint32_t y = 0; y < 64; ++y)
+    for (std::uint32_t x = 0; x < 64; ++x) {
+      const PixelInputs in = pixel_inputs(s, x, y, 64, towards_light, {data.width, data.height}, 1.0f);
+      if (!in.ok) continue;
+      const vec3 expected = glm::clamp(btf::sample_reference(data, in.texel, in.light, in.view), vec3(0.0f), vec3(1.0f));
+      for (int c = 0; c < 3; ++c) {
+        const double got = linear(frame->image, x, y, c);
+        largest = std::max(largest, std::abs(got - expected[c]));
+        CHECK_MESSAGE(std::abs(got - expected[c]) <= 0.004 + 0.01 * expected[c],
+                      "pixel (" << x << ", " << y << ") texel " << in.texel << " channel " << c << ": got " << got
+                                << ", CPU sample_reference " << expected[c]);
+      }
+      ++checked;
+    }
+  CHECK(checked > 1500);
+  MESSAGE("largest |GPU - CPU| over " << checked << " pixels: " << largest);
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("the reference mode's buffer: directions then samples; a BTF too large for it is cropped top-left") {
+  const btf::Btf data = displayable_btf();
+  auto whole = passes::pack_reference(data, std::uint64_t(1) << 30);
+  REQUIRE(whole);
+  CHECK_FALSE(whole->cropped);
+  CHECK(whole->words[0] == 81);
+  CHECK(whole->words[2] == 5);
+  CHECK(whole->words[3] == 3);
+  CHECK(whole->words.size() == 4 + 4 * 162 + data.rgb.size());
+  const std::size_t per_texel = data.abrdf_floats() * 4, header = 16 + 16 * 162;
+  auto cropped = passes::pack_reference(data, header + 6 * per_texel + 100);  // room for 6 of 15 texels
+  REQUIRE(cropped);
+  CHECK(cropped->cropped);
+  CHECK(std::uint64_t(cropped->crop.width) * cropped->crop.height <= 6);
+  CHECK(cropped->crop.width >= 1);
+  CHECK(cropped->crop.height >= 1);
+  // Texel (1, 0) of the crop is texel (1, 0) of the data.
+  const std::size_t at = 4 + 4 * 162 + data.abrdf_floats();
+  CHECK(std::bit_cast<float>(cropped->words[at + 7]) == data.abrdf(1)[7]);
+  auto none = passes::pack_reference(data, header + per_texel - 1);
+  REQUIRE_FALSE(none);
+  CHECK(none.error().message.find("does not fit") != std::string::npos);
 }
 
 TEST_CASE("the renderer adds the neural_btf pass only for scenes that use the material") {
@@ -268,6 +348,17 @@ TEST_CASE("material errors name their JSON path; a corrupt model names the file 
   REQUIRE_FALSE(no_model);
   CHECK(no_model.error().message.find("$.materials.cloth") != std::string::npos);
   CHECK(no_model.error().message.find("model") != std::string::npos);
+
+  // The reference mode needs its raw BTF; a synthetic one is named by weave and size.
+  auto no_btf = load(quad_scene(R"({"type": "neural_btf", "mode": "reference"})", light));
+  auto no_btf_frame = shared_renderer().render(no_btf, {.quality = Quality::Low});
+  REQUIRE_FALSE(no_btf_frame);
+  CHECK(no_btf_frame.error().message.find("btf") != std::string::npos);
+  auto bad_synthetic = load(quad_scene(R"({"type": "neural_btf", "mode": "reference", "btf": "synthetic:tweed:4x4"})", light));
+  auto bad_synthetic_frame = shared_renderer().render(bad_synthetic, {.quality = Quality::Low});
+  REQUIRE_FALSE(bad_synthetic_frame);
+  CHECK(bad_synthetic_frame.error().message.find("$.materials.cloth.btf") != std::string::npos);
+  CHECK(bad_synthetic_frame.error().message.find("synthetic:tweed:4x4") != std::string::npos);
 
   // A file that is not a .wbtf: the error names the material, its field and the file.
   const auto junk = temp_dir() / "junk.wbtf";

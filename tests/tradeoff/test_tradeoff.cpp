@@ -53,7 +53,7 @@ scene::Scene scene_with_every_material() {
   add("fur", "shell_fur", {{"photo", "fur.png"}, {"layers", 15}});
   add("skin", "skin_sss", {{"lut", {{"size", 128}, {"range", "penner"}}}});
   add("ssdf", "ssdf_lighting", {{"albedo", {0.5, 0.5, 0.5}}, {"lobes", 4}});
-  add("btf", "neural_btf", {{"model", "cloth.wbtf"}, {"filter", "nearest"}});
+  add("btf", "neural_btf", {{"model", "cloth.wbtf"}, {"btf", "synthetic:twill:4x4"}, {"filter", "nearest"}});
   // The parsers check that files exist (not what is in them).
   const auto dir = std::filesystem::temp_directory_path() / "weft_test_tradeoff";
   std::filesystem::create_directories(dir);
@@ -317,6 +317,8 @@ TEST_CASE("masked error metrics against analytic values") {
   const double d = srgb_to_linear(200.0 / 255.0) - srgb_to_linear(128.0 / 255.0);
   CHECK(e->rmse == doctest::Approx(std::sqrt(d * d / 128.0)).epsilon(1e-6));
   CHECK(e->max_diff == doctest::Approx(d).epsilon(1e-6));
+  // Relative: the error over the reference's RMS on the same pixels (a flat 128 reference).
+  CHECK(e->relative_rmse == doctest::Approx(e->rmse / srgb_to_linear(128.0 / 255.0)).epsilon(1e-5));
   CHECK(e->psnr_db == doctest::Approx(-20.0 * std::log10(e->rmse)).epsilon(1e-9));
   CHECK(e->ssim < 1.0);
   // Coverage: where the two flat renders differ, or where a setting changed a pixel.

@@ -29,8 +29,8 @@ int invalid(std::string message) { return failed(Error{ErrorKind::InvalidArgumen
 
 std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
   struct Args {
-    std::string input, output, synthetic, weave = "twill", checkpoint;
-    std::uint32_t clusters = 0, epochs = 0, directions = 0, batch = 5;
+    std::string input, output, synthetic, weave = "twill", checkpoint, optimizer = "sgd", schedule = "constant";
+    std::uint32_t clusters = 0, epochs = 0, directions = 0, batch = 5, holdout = 0, patience = 3;
     double minutes = 0.0, learning_rate = 0.0, finetune = 0.25;
     std::uint64_t seed = 1;
     std::size_t threads = 0;
@@ -49,8 +49,16 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
   sub->add_option("--minutes", a->minutes, "Training time budget in minutes (0: none)");
   sub->add_option("--directions", a->directions, "Light/view pairs per texel per step (0: all, the paper's)")
       ->capture_default_str();
-  sub->add_option("--batch", a->batch, "Texels per SGD step")->capture_default_str();
-  sub->add_option("--learning-rate", a->learning_rate, "SGD learning rate (0: 0.05 plain, 0.08 clustered)");
+  sub->add_option("--batch", a->batch, "Texels per step (the paper's 5)")->capture_default_str();
+  sub->add_option("--optimizer", a->optimizer, "sgd (the paper's) or adam")->capture_default_str();
+  sub->add_option("--learning-rate", a->learning_rate, "Learning rate (0: SGD 0.05 plain, 0.08 clustered; Adam 0.001)");
+  sub->add_option("--schedule", a->schedule, "Learning rate: constant (the paper's) or cosine (down to 5 %)")
+      ->capture_default_str();
+  sub->add_option("--holdout", a->holdout,
+                  "Early stopping: hold out every Nth light/view pair, measure it each epoch, keep the best model (0: off)")
+      ->capture_default_str();
+  sub->add_option("--patience", a->patience, "Early stopping: epochs without a better held-out RMSE before a stage ends")
+      ->capture_default_str();
   sub->add_option("--finetune", a->finetune, "Fraction of the training spent on decoder + latents alone, [0, 1]")
       ->capture_default_str();
   sub->add_option("--seed", a->seed, "Seed of the synthetic data, the clustering and the training")->capture_default_str();
@@ -68,6 +76,11 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
               return invalid(weft::format("--finetune {} is outside [0, 1]", a->finetune));
             if (!(a->learning_rate >= 0.0)) return invalid(weft::format("--learning-rate {} is negative", a->learning_rate));
             if (a->resume && a->checkpoint.empty()) return invalid("--resume needs --checkpoint FILE");
+            if (a->optimizer != "sgd" && a->optimizer != "adam")
+              return invalid(weft::format("--optimizer '{}' is not sgd or adam", a->optimizer));
+            if (a->schedule != "constant" && a->schedule != "cosine")
+              return invalid(weft::format("--schedule '{}' is not constant or cosine", a->schedule));
+            if (a->holdout == 1) return invalid("--holdout 1 holds out every pair (0: off, or 2 and more)");
             btf::Btf data;
             std::string source;
             if (!a->synthetic.empty()) {
@@ -101,6 +114,10 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
             o.texel_scales = !a->no_scales;
             o.learning_rate = float(a->learning_rate);
             o.batch = a->batch;
+            o.optimizer = a->optimizer == "adam" ? btf::Optimizer::Adam : btf::Optimizer::Sgd;
+            o.schedule = a->schedule == "cosine" ? btf::LearningRateSchedule::Cosine : btf::LearningRateSchedule::Constant;
+            o.holdout_every = a->holdout;
+            o.patience = a->patience;
             o.directions_per_texel = a->directions;
             o.epochs = a->epochs ? a->epochs : (a->minutes > 0.0 ? 1000000u : 20u);
             o.max_seconds = a->minutes * 60.0;
@@ -110,9 +127,12 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
             o.checkpoint = a->checkpoint;
             o.resume = a->resume;
             o.progress = [](const btf::TrainProgress& p) {
-              std::printf("epoch %zu/%zu step %zu/%zu%s: loss %.4g, %.0f %%, %s elapsed, ETA %s\n", p.epoch + 1, p.epochs,
-                          p.step, p.steps_per_epoch, p.finetuning ? " (latents + decoder)" : "", p.loss, 100.0 * p.fraction,
-                          btf::describe_seconds(p.elapsed_s).c_str(), btf::describe_seconds(p.eta_s).c_str());
+              std::printf("epoch %zu/%zu step %zu/%zu%s: loss %.4g, lr %.3g%s, %.0f %%, %s elapsed, ETA %s\n", p.epoch + 1,
+                          p.epochs, p.step, p.steps_per_epoch, p.finetuning ? " (latents + decoder)" : "", p.loss,
+                          p.learning_rate,
+                          p.validation_rmse >= 0.0 ? weft::format(", held-out RMSE {:.5f}", p.validation_rmse).c_str() : "",
+                          100.0 * p.fraction, btf::describe_seconds(p.elapsed_s).c_str(),
+                          btf::describe_seconds(p.eta_s).c_str());
               std::fflush(stdout);
             };
             if (a->clusters > data.texels())
@@ -144,6 +164,9 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
                         raw / 1048576.0, double(bytes.total()) / 1024.0, double(bytes.decoder) / 1024.0,
                         double(bytes.latents) / 1024.0, double(bytes.ids) / 1024.0, double(bytes.scales) / 1024.0,
                         ec ? 0.0 : double(file_size) / 1024.0, raw / double(bytes.total()));
+            if (trained->validation_rmse >= 0.0)
+              std::printf("early stopping: kept epoch %zu's model, held-out RMSE %.5f%s\n", trained->best_epoch,
+                          trained->validation_rmse, trained->stopped_early ? " (patience ran out)" : "");
             std::printf("RMSE %.5f over every sample (mean sample %.4f; the best constant scores %.4f), final training "
                         "loss %.4g\n",
                         *error, mean, btf::constant_rmse(data), trained->final_loss);

@@ -1,7 +1,7 @@
 // Training checkpoints: little-endian "WEFTBTCK", version, the fingerprint of the data and
 // options that produced them, the position (epoch, step, stage), the loss sums of the epoch
-// in progress, then the parameters, batch-norm statistics and (fine-tuning) latents, and an
-// FNV-1a checksum of everything before it. Written to a temporary renamed over the file, so
+// in progress, then the parameters, batch-norm statistics and (fine-tuning) latents, Adam's
+// step count and moments, early stopping's state and best model, and an FNV-1a checksum of everything before it. Written to a temporary renamed over the file, so
 // an interrupted write never leaves a half checkpoint.
 module;
 #include <cstddef>
@@ -22,7 +22,7 @@ namespace weft::btf::training_detail {
 namespace {
 
 constexpr char kMagic[8] = {'W', 'E', 'F', 'T', 'B', 'T', 'C', 'K'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;  // 2: Adam moments and early stopping's best model
 
 struct Writer {
   std::vector<std::byte> bytes;
@@ -75,6 +75,20 @@ Result<void> save_checkpoint(const std::filesystem::path& file, const TrainState
   w.floats(s.running_mean);
   w.floats(s.running_var);
   w.floats(s.latents);
+  w.value(s.adam_steps);
+  w.floats(s.moment1);
+  w.floats(s.moment2);
+  w.floats(s.latent_moment1);
+  w.floats(s.latent_moment2);
+  w.value(s.best_rmse);
+  w.value(s.last_rmse);
+  w.value(s.best_epoch);
+  w.value(s.stale);
+  w.value(std::uint8_t(s.best_finetuning));
+  w.floats(s.best_parameters);
+  w.floats(s.best_running_mean);
+  w.floats(s.best_running_var);
+  w.floats(s.best_latents);
   w.value(hash_bytes(w.bytes));
   return write_file_atomically(file, {std::span<const std::byte>(w.bytes)}, "checkpoint");
 }
@@ -96,18 +110,23 @@ Result<TrainState> load_checkpoint(const std::filesystem::path& file) {
   std::uint32_t version = 0;
   TrainState s;
   std::uint64_t epoch = 0, step = 0;
-  std::uint8_t finetuning = 0;
+  std::uint8_t finetuning = 0, best_finetuning = 0;
   if (!r.value(version)) return fail(ErrorKind::Parse, "checkpoint {}: truncated header", file.string());
   if (version != kVersion)
     return fail(ErrorKind::Parse, "checkpoint {}: version {} (this build reads {})", file.string(), version, kVersion);
   const bool ok = r.value(s.fingerprint) && r.value(epoch) && r.value(step) && r.value(finetuning) &&
                   r.value(s.elapsed_s) && r.value(s.epoch_loss) && r.value(s.epoch_count) &&
                   r.value(s.last_epoch_loss) && r.floats(s.parameters) && r.floats(s.running_mean) &&
-                  r.floats(s.running_var) && r.floats(s.latents) && r.at == body;
+                  r.floats(s.running_var) && r.floats(s.latents) && r.value(s.adam_steps) && r.floats(s.moment1) &&
+                  r.floats(s.moment2) && r.floats(s.latent_moment1) && r.floats(s.latent_moment2) &&
+                  r.value(s.best_rmse) && r.value(s.last_rmse) && r.value(s.best_epoch) && r.value(s.stale) &&
+                  r.value(best_finetuning) && r.floats(s.best_parameters) && r.floats(s.best_running_mean) &&
+                  r.floats(s.best_running_var) && r.floats(s.best_latents) && r.at == body;
   if (!ok) return fail(ErrorKind::Parse, "checkpoint {}: sections do not fit the file", file.string());
   s.epoch = std::size_t(epoch);
   s.step = std::size_t(step);
   s.finetuning = finetuning != 0;
+  s.best_finetuning = best_finetuning != 0;
   return s;
 }
 

@@ -8,6 +8,7 @@ module;
 #include <cstddef>
 #include <cstdint>
 #include <expected>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <random>
@@ -37,20 +38,27 @@ constexpr float kBatchNormMomentum = 0.1f;
 std::uint32_t pooled(std::uint32_t n) { return (n + 2) / 3; }  // max-pool 3 stride 3, partial windows kept
 
 // im2col for a 3x3 kernel, stride 1, zero padding 1: row (ci*9 + ky*3 + kx), column y*W + x.
+// Each row is the image shifted by (ky - 1, kx - 1): per image row, one copy of the columns
+// that stay inside and zeros at the one-pixel border.
 void im2col(const float* x, std::uint32_t channels, std::uint32_t rows, std::uint32_t cols, RowMatrix& out) {
   out.resize(Eigen::Index(channels) * 9, Eigen::Index(rows) * cols);
+  const int W = int(cols);
   for (std::uint32_t c = 0; c < channels; ++c)
     for (int ky = 0; ky < 3; ++ky)
       for (int kx = 0; kx < 3; ++kx) {
         float* dst = out.row(Eigen::Index(c * 9 + ky * 3 + kx)).data();
+        const int x0 = std::max(0, 1 - kx), x1 = std::min(W, W + 1 - kx);  // columns whose source is inside
         for (std::uint32_t y = 0; y < rows; ++y) {
+          float* d = dst + std::size_t(y) * cols;
           const int sy = int(y) + ky - 1;
-          for (std::uint32_t xx = 0; xx < cols; ++xx) {
-            const int sx = int(xx) + kx - 1;
-            dst[y * cols + xx] = (sy < 0 || sy >= int(rows) || sx < 0 || sx >= int(cols))
-                                     ? 0.0f
-                                     : x[(std::size_t(c) * rows + std::size_t(sy)) * cols + std::size_t(sx)];
+          if (sy < 0 || sy >= int(rows) || x1 <= x0) {
+            std::fill_n(d, cols, 0.0f);
+            continue;
           }
+          const float* src = x + (std::size_t(c) * rows + std::size_t(sy)) * cols + (kx - 1);
+          std::fill(d, d + x0, 0.0f);
+          std::copy(src + x0, src + x1, d + x0);
+          std::fill(d + x1, d + W, 0.0f);
         }
       }
 }
@@ -58,18 +66,18 @@ void im2col(const float* x, std::uint32_t channels, std::uint32_t rows, std::uin
 // The adjoint of im2col: scatters column gradients back onto the image.
 void col2im(const RowMatrix& dcols, std::uint32_t channels, std::uint32_t rows, std::uint32_t cols, float* dx) {
   std::fill_n(dx, std::size_t(channels) * rows * cols, 0.0f);
+  const int W = int(cols);
   for (std::uint32_t c = 0; c < channels; ++c)
     for (int ky = 0; ky < 3; ++ky)
       for (int kx = 0; kx < 3; ++kx) {
         const float* src = dcols.row(Eigen::Index(c * 9 + ky * 3 + kx)).data();
+        const int x0 = std::max(0, 1 - kx), x1 = std::min(W, W + 1 - kx);
         for (std::uint32_t y = 0; y < rows; ++y) {
           const int sy = int(y) + ky - 1;
           if (sy < 0 || sy >= int(rows)) continue;
-          for (std::uint32_t xx = 0; xx < cols; ++xx) {
-            const int sx = int(xx) + kx - 1;
-            if (sx < 0 || sx >= int(cols)) continue;
-            dx[(std::size_t(c) * rows + std::size_t(sy)) * cols + std::size_t(sx)] += src[y * cols + xx];
-          }
+          float* d = dx + (std::size_t(c) * rows + std::size_t(sy)) * cols + (kx - 1);
+          const float* s = src + std::size_t(y) * cols;
+          for (int xx = x0; xx < x1; ++xx) d[xx] += s[xx];
         }
       }
 }
@@ -87,6 +95,10 @@ struct EncoderCache {
   };
   std::array<Stage, 3> stages;
   std::vector<Eigen::VectorXf> flat;  // per item: the fully connected layer's input
+  // Per item, reused from step to step: allocating these each time (hundreds of KiB) cost more
+  // in page faults and zeroing than the arithmetic on them.
+  std::vector<std::vector<float>> input;  // a stage's input, CHW
+  mutable std::vector<RowMatrix> conv_out, dz, dcols, dx;
 };
 
 void EncoderCacheDeleter::operator()(EncoderCache* cache) const { delete cache; }
@@ -179,23 +191,36 @@ Decoder decoder_of(const Network& network) {
 }
 
 namespace {
+// Runs body(i) for i in [0, count): on the caller's pool, or inline.
+void each(const ParallelFn& parallel, std::size_t count, const std::function<void(std::size_t)>& body) {
+  if (parallel && count > 1) {
+    parallel(count, body);
+  } else {
+    for (std::size_t i = 0; i < count; ++i) body(i);
+  }
+}
+
 // The encoder's stages over a batch. With `stop` < 3, returns after stage `stop`'s conv and
 // max-pool with its pre-batch-norm output in `pre_norm` (for batch_norm_population);
-// otherwise runs through the fully connected layer into `latents`.
+// otherwise runs through the fully connected layer into `latents`. Batch items run in
+// parallel; what couples them (batch norm's sums) is summed per item, then over items in
+// order, so the result does not depend on the thread count.
 void run_encoder(Network& network, std::span<const float* const> inputs, bool training, EncoderCache& cache,
-                 std::span<float> latents, std::size_t stop, std::vector<RowMatrix>* pre_norm) {
+                 std::span<float> latents, std::size_t stop, std::vector<RowMatrix>* pre_norm, const ParallelFn& parallel) {
   const std::size_t batch = inputs.size();
   const auto& shape = network.shape;
   const float* p = network.parameters.data();
   cache.batch = batch;
   // Stage input per item, CHW.
-  std::vector<std::vector<float>> x(batch);
+  auto& x = cache.input;
+  if (x.size() < batch) x.resize(batch);
+  if (cache.conv_out.size() < batch) cache.conv_out.resize(batch);
   const std::size_t pixels = std::size_t(shape.lights) * shape.views;
-  for (std::size_t b = 0; b < batch; ++b) {
+  each(parallel, batch, [&](std::size_t b) {
     x[b].resize(3 * pixels);
     for (std::size_t i = 0; i < pixels; ++i)
       for (std::size_t c = 0; c < 3; ++c) x[b][c * pixels + i] = inputs[b][i * 3 + c];
-  }
+  });
   std::size_t bn_offset = 0;
   for (std::size_t s = 0; s < 3; ++s) {
     const auto& conv = network.conv[s];
@@ -207,27 +232,37 @@ void run_encoder(Network& network, std::span<const float* const> inputs, bool tr
     const ConstRowMap weights(p + conv.weights, conv.out, Eigen::Index(conv.in) * 9);
     const ConstVectorMap bias(p + conv.bias, conv.out);
     std::vector<RowMatrix> pooled_out(batch);
-    for (std::size_t b = 0; b < batch; ++b) {
+    // Per item and channel: the sum, then the squared deviations about the batch mean.
+    std::vector<double> sums(batch * conv.out, 0.0), squares(batch * conv.out, 0.0);
+    each(parallel, batch, [&](std::size_t b) {
       im2col(x[b].data(), conv.in, conv.rows, conv.cols, st.cols[b]);
-      RowMatrix z = weights * st.cols[b];
+      RowMatrix& z = cache.conv_out[b];
+      z.resize(conv.out, Eigen::Index(std::size_t(conv.rows) * conv.cols));
+      z.noalias() = weights * st.cols[b];
       z.colwise() += bias;
       RowMatrix& out = pooled_out[b];
       out.resize(conv.out, Eigen::Index(out_pixels));
       st.argmax[b].resize(std::size_t(conv.out) * out_pixels);
-      for (std::uint32_t c = 0; c < conv.out; ++c)
+      for (std::uint32_t c = 0; c < conv.out; ++c) {
+        const float* zc = z.row(c).data();
+        float* oc = out.row(c).data();
+        std::uint32_t* ac = st.argmax[b].data() + std::size_t(c) * out_pixels;
         for (std::uint32_t py = 0; py < conv.pooled_rows; ++py)
           for (std::uint32_t px = 0; px < conv.pooled_cols; ++px) {
-            float best = -std::numeric_limits<float>::infinity();
-            std::uint32_t at = 0;
+            // The first pixel of the window wins ties (and a window of NaNs).
+            std::uint32_t at = py * 3 * conv.cols + px * 3;
+            float best = zc[at];
             for (std::uint32_t y = py * 3; y < std::min(py * 3 + 3, conv.rows); ++y)
               for (std::uint32_t xx = px * 3; xx < std::min(px * 3 + 3, conv.cols); ++xx) {
-                const float v = z(c, Eigen::Index(y * conv.cols + xx));
-                if (v > best || (at == 0 && y == py * 3 && xx == px * 3)) best = v, at = y * conv.cols + xx;
+                const float v = zc[y * conv.cols + xx];
+                if (v > best) best = v, at = y * conv.cols + xx;
               }
-            out(c, Eigen::Index(py * conv.pooled_cols + px)) = best;
-            st.argmax[b][std::size_t(c) * out_pixels + py * conv.pooled_cols + px] = at;
+            oc[py * conv.pooled_cols + px] = best;
+            ac[py * conv.pooled_cols + px] = at;
           }
-    }
+      }
+      for (std::uint32_t c = 0; c < conv.out; ++c) sums[b * conv.out + c] = double(out.row(c).sum());
+    });
     if (s == stop) {
       *pre_norm = std::move(pooled_out);
       return;
@@ -235,31 +270,41 @@ void run_encoder(Network& network, std::span<const float* const> inputs, bool tr
     // Batch norm per channel over (batch, pixels).
     st.inv_std.assign(conv.out, 0.0f);
     const double count = double(batch * out_pixels);
-    for (std::size_t b = 0; b < batch; ++b) st.xhat[b].resize(conv.out, Eigen::Index(out_pixels));
+    std::vector<float> mean(conv.out), var(conv.out);
     for (std::uint32_t c = 0; c < conv.out; ++c) {
-      float mean = network.running_mean[bn_offset + c], var = network.running_var[bn_offset + c];
+      mean[c] = network.running_mean[bn_offset + c], var[c] = network.running_var[bn_offset + c];
       if (training) {
-        double sum = 0.0, sq = 0.0;
-        for (std::size_t b = 0; b < batch; ++b) sum += double(pooled_out[b].row(c).sum());
-        const double m = sum / count;
-        for (std::size_t b = 0; b < batch; ++b) sq += double((pooled_out[b].row(c).array() - float(m)).square().sum());
-        mean = float(m);
-        var = float(sq / count);
-        network.running_mean[bn_offset + c] =
-            (1.0f - kBatchNormMomentum) * network.running_mean[bn_offset + c] + kBatchNormMomentum * mean;
-        network.running_var[bn_offset + c] =
-            (1.0f - kBatchNormMomentum) * network.running_var[bn_offset + c] + kBatchNormMomentum * var;
-      }
-      st.inv_std[c] = 1.0f / std::sqrt(var + kBatchNormEpsilon);
-      const float gamma = p[conv.gamma + c], beta = p[conv.beta + c];
-      for (std::size_t b = 0; b < batch; ++b) {
-        st.xhat[b].row(c) = (pooled_out[b].row(c).array() - mean) * st.inv_std[c];
-        pooled_out[b].row(c) = st.xhat[b].row(c).array() * gamma + beta;
+        double sum = 0.0;
+        for (std::size_t b = 0; b < batch; ++b) sum += sums[b * conv.out + c];
+        mean[c] = float(sum / count);
       }
     }
-    bn_offset += conv.out;
-    for (std::size_t b = 0; b < batch; ++b)
+    if (training) {
+      each(parallel, batch, [&](std::size_t b) {
+        for (std::uint32_t c = 0; c < conv.out; ++c)
+          squares[b * conv.out + c] = double((pooled_out[b].row(c).array() - mean[c]).square().sum());
+      });
+      for (std::uint32_t c = 0; c < conv.out; ++c) {
+        double sq = 0.0;
+        for (std::size_t b = 0; b < batch; ++b) sq += squares[b * conv.out + c];
+        var[c] = float(sq / count);
+        network.running_mean[bn_offset + c] =
+            (1.0f - kBatchNormMomentum) * network.running_mean[bn_offset + c] + kBatchNormMomentum * mean[c];
+        network.running_var[bn_offset + c] =
+            (1.0f - kBatchNormMomentum) * network.running_var[bn_offset + c] + kBatchNormMomentum * var[c];
+      }
+    }
+    for (std::uint32_t c = 0; c < conv.out; ++c) st.inv_std[c] = 1.0f / std::sqrt(var[c] + kBatchNormEpsilon);
+    each(parallel, batch, [&](std::size_t b) {
+      st.xhat[b].resize(conv.out, Eigen::Index(out_pixels));
+      for (std::uint32_t c = 0; c < conv.out; ++c) {
+        const float gamma = p[conv.gamma + c], beta = p[conv.beta + c];
+        st.xhat[b].row(c) = (pooled_out[b].row(c).array() - mean[c]) * st.inv_std[c];
+        pooled_out[b].row(c) = st.xhat[b].row(c).array() * gamma + beta;
+      }
       x[b].assign(pooled_out[b].data(), pooled_out[b].data() + pooled_out[b].size());  // row-major = CHW
+    });
+    bn_offset += conv.out;
   }
   const ConstRowMap fc(p + network.fc_weights, shape.latent, Eigen::Index(network.fc_inputs));
   const ConstVectorMap fc_bias(p + network.fc_bias, shape.latent);
@@ -271,17 +316,18 @@ void run_encoder(Network& network, std::span<const float* const> inputs, bool tr
 }
 
 void encode_stages(Network& network, std::span<const float* const> inputs, std::size_t stage, EncoderCache& cache,
-                   std::vector<RowMatrix>& pre_norm) {
-  run_encoder(network, inputs, false, cache, {}, stage, &pre_norm);
+                   std::vector<RowMatrix>& pre_norm, const ParallelFn& parallel) {
+  run_encoder(network, inputs, false, cache, {}, stage, &pre_norm, parallel);
 }
 }  // namespace
 
 void encode_batch(Network& network, std::span<const float* const> inputs, bool training, EncoderCache& cache,
-                  std::span<float> latents) {
-  run_encoder(network, inputs, training, cache, latents, 3, nullptr);
+                  std::span<float> latents, const ParallelFn& parallel) {
+  run_encoder(network, inputs, training, cache, latents, 3, nullptr, parallel);
 }
 
-void batch_norm_population(Network& network, std::span<const float* const> inputs, std::size_t chunk) {
+void batch_norm_population(Network& network, std::span<const float* const> inputs, std::size_t chunk,
+                           const ParallelFn& parallel) {
   if (inputs.empty()) return;
   chunk = std::max<std::size_t>(1, chunk);
   std::size_t bn_offset = 0;
@@ -297,7 +343,7 @@ void batch_norm_population(Network& network, std::span<const float* const> input
     for (std::size_t i = 0; i < inputs.size(); i += chunk) {
       const std::size_t n = std::min(chunk, inputs.size() - i);
       std::vector<RowMatrix> pooled_out;
-      encode_stages(network, inputs.subspan(i, n), s, *cache, pooled_out);
+      encode_stages(network, inputs.subspan(i, n), s, *cache, pooled_out, parallel);
       const double chunk_count = double(n) * per_input, total = count + chunk_count;
       for (std::uint32_t c = 0; c < conv.out; ++c) {
         double sum = 0.0;
@@ -320,7 +366,7 @@ void batch_norm_population(Network& network, std::span<const float* const> input
 }
 
 void encoder_backward(const Network& network, const EncoderCache& cache, std::span<const float> latent_gradient,
-                      std::span<float> gradient) {
+                      std::span<float> gradient, const ParallelFn& parallel) {
   const std::size_t batch = cache.batch;
   const auto& shape = network.shape;
   const float* p = network.parameters.data();
@@ -338,43 +384,63 @@ void encoder_backward(const Network& network, const EncoderCache& cache, std::sp
     Eigen::VectorXf df = fc.transpose() * dl;
     dy[b] = Eigen::Map<RowMatrix>(df.data(), last.out, Eigen::Index(last.pooled_rows) * last.pooled_cols);
   }
+  // Per item: its share of each stage's weight and bias gradients, summed over items in order.
+  if (cache.dz.size() < batch) cache.dz.resize(batch), cache.dcols.resize(batch), cache.dx.resize(batch);
+  std::vector<RowMatrix> item_dweights(batch);
+  std::vector<Eigen::VectorXf> item_dbias(batch);
   for (int s = 2; s >= 0; --s) {
     const auto& conv = network.conv[std::size_t(s)];
     const auto& st = cache.stages[std::size_t(s)];
     const std::size_t out_pixels = std::size_t(conv.pooled_rows) * conv.pooled_cols;
     const double count = double(batch * out_pixels);
     // Batch norm backward: dx = γ/σ (dy − mean(dy) − x̂ mean(dy x̂)), means over (batch, pixels).
+    std::vector<double> item_dy(batch * conv.out), item_dy_xhat(batch * conv.out);
+    each(parallel, batch, [&](std::size_t b) {
+      for (std::uint32_t c = 0; c < conv.out; ++c) {
+        item_dy[b * conv.out + c] = double(dy[b].row(c).sum());
+        item_dy_xhat[b * conv.out + c] = double((dy[b].row(c).array() * st.xhat[b].row(c).array()).sum());
+      }
+    });
+    std::vector<float> mean_dy(conv.out), mean_dy_xhat(conv.out), k(conv.out);
     for (std::uint32_t c = 0; c < conv.out; ++c) {
       double sum_dy = 0.0, sum_dy_xhat = 0.0;
       for (std::size_t b = 0; b < batch; ++b) {
-        sum_dy += double(dy[b].row(c).sum());
-        sum_dy_xhat += double((dy[b].row(c).array() * st.xhat[b].row(c).array()).sum());
+        sum_dy += item_dy[b * conv.out + c];
+        sum_dy_xhat += item_dy_xhat[b * conv.out + c];
       }
       g[conv.gamma + c] += float(sum_dy_xhat);
       g[conv.beta + c] += float(sum_dy);
-      const float k = p[conv.gamma + c] * st.inv_std[c];
-      const float mean_dy = float(sum_dy / count), mean_dy_xhat = float(sum_dy_xhat / count);
-      for (std::size_t b = 0; b < batch; ++b)
-        dy[b].row(c) = k * (dy[b].row(c).array() - mean_dy - st.xhat[b].row(c).array() * mean_dy_xhat);
+      k[c] = p[conv.gamma + c] * st.inv_std[c];
+      mean_dy[c] = float(sum_dy / count), mean_dy_xhat[c] = float(sum_dy_xhat / count);
     }
     const ConstRowMap weights(p + conv.weights, conv.out, Eigen::Index(conv.in) * 9);
     RowMap dweights(g + conv.weights, conv.out, Eigen::Index(conv.in) * 9);
     VectorMap dbias(g + conv.bias, conv.out);
     const std::size_t in_pixels = std::size_t(conv.rows) * conv.cols;
-    for (std::size_t b = 0; b < batch; ++b) {
+    each(parallel, batch, [&](std::size_t b) {
+      for (std::uint32_t c = 0; c < conv.out; ++c)
+        dy[b].row(c) = k[c] * (dy[b].row(c).array() - mean_dy[c] - st.xhat[b].row(c).array() * mean_dy_xhat[c]);
       // Max-pool backward: each pooled gradient goes to the pixel that won.
-      RowMatrix dz = RowMatrix::Zero(conv.out, Eigen::Index(in_pixels));
+      RowMatrix& dz = cache.dz[b];
+      dz.setZero(conv.out, Eigen::Index(in_pixels));
       for (std::uint32_t c = 0; c < conv.out; ++c)
         for (std::size_t q = 0; q < out_pixels; ++q)
           dz(c, Eigen::Index(st.argmax[b][c * out_pixels + q])) += dy[b](c, Eigen::Index(q));
-      dweights.noalias() += dz * st.cols[b].transpose();
-      dbias += dz.rowwise().sum();
+      item_dweights[b].noalias() = dz * st.cols[b].transpose();
+      item_dbias[b] = dz.rowwise().sum();
       if (s > 0) {
-        const RowMatrix dcols = weights.transpose() * dz;
-        RowMatrix dx(conv.in, Eigen::Index(in_pixels));
+        RowMatrix& dcols = cache.dcols[b];
+        dcols.resize(Eigen::Index(conv.in) * 9, Eigen::Index(in_pixels));
+        dcols.noalias() = weights.transpose() * dz;
+        RowMatrix& dx = cache.dx[b];
+        dx.resize(conv.in, Eigen::Index(in_pixels));
         col2im(dcols, conv.in, conv.rows, conv.cols, dx.data());
-        dy[b] = std::move(dx);
+        dy[b] = dx;
       }
+    });
+    for (std::size_t b = 0; b < batch; ++b) {
+      dweights += item_dweights[b];
+      dbias += item_dbias[b];
     }
   }
 }

@@ -1,12 +1,18 @@
-// The training loop: SGD over batches of texels, each texel contributing its (light, view)
-// samples; the samples of a step are cut into fixed chunks that threads run in any order,
-// each writing its own gradient buffer, summed in chunk order — so the weights do not depend
-// on the thread count. Stage 1 trains encoder + decoder end to end; stage 2 (the last
-// finetune_fraction) encodes the latents once and trains them with the decoder directly.
+// The training loop: SGD (the paper's) or Adam over batches of texels, each texel
+// contributing its (light, view) samples; the samples of a step are cut into fixed blocks
+// that threads run in any order, each writing its own gradient buffer, summed in block order —
+// so the weights do not depend on the thread count. Stage 1 trains encoder + decoder end to
+// end; stage 2 (the last finetune_fraction) encodes the latents once and trains them with the
+// decoder directly. Optional early stopping measures held-out pairs at epoch ends.
 module;
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <functional>
+#include <mutex>
+#include <thread>
 #include <cstddef>
 #include <cstdint>
 #include <expected>
@@ -15,6 +21,7 @@ module;
 #include <random>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 module weft.btf.training;
 import weft.core;
@@ -27,7 +34,77 @@ namespace {
 
 using training_detail::TrainState;
 
-constexpr std::size_t kChunk = 512;  // samples per decoder work item
+constexpr std::size_t kChunk = 512;  // samples per decoder work item, unbatched (one texel's)
+constexpr std::size_t kBlock = 256;  // samples per decoder work item, batched (across texels)
+
+// Threads kept for the whole training: a step runs several parallel phases (encoder stages,
+// decoder blocks, backward), and starting threads for each cost more than some phases.
+class WorkerPool {
+ public:
+  explicit WorkerPool(std::size_t threads) {
+    const std::size_t n = threads ? threads : std::max<std::size_t>(1, std::thread::hardware_concurrency());
+    for (std::size_t i = 1; i < n; ++i) workers_.emplace_back([this] { loop(); });
+  }
+  ~WorkerPool() {
+    {
+      std::lock_guard lock(mutex_);
+      stopping_ = true;
+    }
+    wake_.notify_all();
+    for (auto& w : workers_) w.join();
+  }
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+
+  void run(std::size_t count, const std::function<void(std::size_t)>& body) {
+    if (workers_.empty() || count <= 1) {
+      for (std::size_t i = 0; i < count; ++i) body(i);
+      return;
+    }
+    {
+      std::lock_guard lock(mutex_);
+      body_ = &body;
+      count_ = count;
+      next_ = 0;
+      busy_ = workers_.size();
+      ++generation_;
+    }
+    wake_.notify_all();
+    work();
+    std::unique_lock lock(mutex_);
+    done_.wait(lock, [&] { return busy_ == 0; });
+  }
+
+ private:
+  void work() {
+    for (std::size_t i = next_++; i < count_; i = next_++) (*body_)(i);
+  }
+  void loop() {
+    std::uint64_t seen = 0;
+    for (;;) {
+      {
+        std::unique_lock lock(mutex_);
+        wake_.wait(lock, [&] { return stopping_ || generation_ != seen; });
+        if (stopping_) return;
+        seen = generation_;
+      }
+      work();
+      {
+        std::lock_guard lock(mutex_);
+        --busy_;
+      }
+      done_.notify_one();
+    }
+  }
+  std::vector<std::thread> workers_;
+  std::mutex mutex_;
+  std::condition_variable wake_, done_;
+  const std::function<void(std::size_t)>* body_ = nullptr;
+  std::size_t count_ = 0, busy_ = 0;
+  std::atomic<std::size_t> next_{0};
+  std::uint64_t generation_ = 0;
+  bool stopping_ = false;
+};
 
 std::uint64_t mix(std::uint64_t a, std::uint64_t b) {  // splitmix64 of a combined key
   std::uint64_t z = a * 0x9E3779B97F4A7C15ull + b + 0x632BE59BD9B4E019ull;
@@ -48,10 +125,15 @@ struct Data {
 };
 
 struct Chunk {
-  std::size_t item, begin, end;  // batch item and its sample range
+  std::size_t begin, end;  // a range of the step's samples (item-major: item = sample / per_texel)
 };
 
 }  // namespace
+
+std::string_view to_string(Optimizer optimizer) { return optimizer == Optimizer::Adam ? "adam" : "sgd"; }
+std::string_view to_string(LearningRateSchedule schedule) {
+  return schedule == LearningRateSchedule::Cosine ? "cosine" : "constant";
+}
 
 std::string describe_seconds(double s) {
   if (!(s >= 0.0) || !std::isfinite(s)) return "?";
@@ -79,6 +161,16 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
                 btf.texels());
   if (o.resume && o.checkpoint.empty())
     return fail(ErrorKind::InvalidArgument, "resume asked for without a checkpoint file");
+  if (!(o.adam_beta1 >= 0.0f && o.adam_beta1 < 1.0f) || !(o.adam_beta2 >= 0.0f && o.adam_beta2 < 1.0f) ||
+      !(o.adam_epsilon > 0.0f) || !std::isfinite(o.adam_epsilon))
+    return fail(ErrorKind::InvalidArgument, "Adam's beta1 {}, beta2 {} (each in [0, 1)) or epsilon {} (> 0)", o.adam_beta1,
+                o.adam_beta2, o.adam_epsilon);
+  if (!(o.schedule_floor >= 0.0f && o.schedule_floor <= 1.0f))
+    return fail(ErrorKind::InvalidArgument, "learning-rate schedule floor {} is outside [0, 1]", o.schedule_floor);
+  if (o.holdout_every == 1)
+    return fail(ErrorKind::InvalidArgument, "holdout every 1 pair leaves nothing to train on (use 0 for none, or >= 2)");
+  if (o.holdout_every > 0 && o.validation_texels == 0)
+    return fail(ErrorKind::InvalidArgument, "early stopping with 0 validation texels");
 
   TrainResult result;
   Data d;
@@ -138,9 +230,15 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
   if (!made) return std::unexpected(made.error());
   Network net = std::move(*made);
   const std::size_t L = shape.latent;
-  const float lr = o.learning_rate > 0.0f ? o.learning_rate : (o.clusters ? 0.08f : 0.05f);
-  const std::size_t per_texel = (o.directions_per_texel == 0 || o.directions_per_texel >= d.pairs)
-                                    ? d.pairs
+  const bool adam = o.optimizer == Optimizer::Adam;
+  const float lr = o.learning_rate > 0.0f ? o.learning_rate : adam ? 0.001f : (o.clusters ? 0.08f : 0.05f);
+  // The pairs a step may draw: all, or all but the held-out ones (early stopping's).
+  std::vector<std::uint32_t> train_pairs, held_pairs;
+  for (std::uint32_t pr = 0; pr < d.pairs; ++pr)
+    (o.holdout_every && pr % o.holdout_every == o.holdout_every / 2 ? held_pairs : train_pairs).push_back(pr);
+  const std::size_t trainable = train_pairs.size();
+  const std::size_t per_texel = (o.directions_per_texel == 0 || o.directions_per_texel >= trainable)
+                                    ? trainable
                                     : std::size_t(o.directions_per_texel);
   const std::size_t steps_per_epoch = (d.texels + o.batch - 1) / o.batch;
   const std::size_t finetune_epochs =
@@ -156,6 +254,10 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
   fp.value(std::uint64_t(per_texel)).value(o.seed).value(std::uint64_t(net.parameters.size()));
   for (auto h : shape.hidden) fp.value(h);
   for (auto c : shape.channels) fp.value(c);
+  fp.value(std::uint8_t(o.optimizer)).value(o.adam_beta1).value(o.adam_beta2).value(o.adam_epsilon);
+  fp.value(std::uint8_t(o.schedule)).value(o.schedule_floor).value(o.holdout_every).value(o.patience);
+  fp.value(o.validation_texels).value(o.batched);
+  if (o.schedule != LearningRateSchedule::Constant) fp.value(o.epochs).value(o.max_seconds);  // the schedule's length
 
   TrainState state;
   state.fingerprint = fp.digest();
@@ -166,10 +268,14 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     if (loaded->fingerprint != state.fingerprint)
       return fail(ErrorKind::InvalidArgument,
                   "checkpoint {} belongs to other data or options (BTF, clusters, seed, batch, learning rate, "
-                  "directions per texel or network differ)",
+                  "optimizer, schedule, hold-out, directions per texel or network differ)",
                   o.checkpoint.string());
-    if (loaded->parameters.size() != net.parameters.size() || loaded->running_mean.size() != net.running_mean.size() ||
-        (loaded->finetuning && loaded->latents.size() != d.latent_count * L))
+    const std::size_t P = net.parameters.size(), LL = d.latent_count * L;
+    auto sized = [](const std::vector<float>& v, std::size_t n) { return v.empty() || v.size() == n; };
+    if (loaded->parameters.size() != P || loaded->running_mean.size() != net.running_mean.size() ||
+        (loaded->finetuning && loaded->latents.size() != LL) || !sized(loaded->moment1, P) ||
+        !sized(loaded->moment2, P) || !sized(loaded->latent_moment1, LL) || !sized(loaded->latent_moment2, LL) ||
+        !sized(loaded->best_parameters, P) || !sized(loaded->best_latents, LL))
       return fail(ErrorKind::InvalidArgument, "checkpoint {}: sizes do not match the network", o.checkpoint.string());
     state = std::move(*loaded);
     net.parameters = state.parameters;
@@ -177,18 +283,85 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     net.running_var = state.running_var;
     latents = state.latents;
   }
+  if (adam) {
+    if (state.moment1.empty()) state.moment1.assign(net.parameters.size(), 0.0f);
+    if (state.moment2.empty()) state.moment2.assign(net.parameters.size(), 0.0f);
+  }
 
-  auto encode_all = [&] {  // inference-mode latents of every encoder input, population statistics
-    std::vector<const float*> all(d.latent_count);
-    for (std::size_t i = 0; i < d.latent_count; ++i) all[i] = d.encoder_inputs.data() + i * d.floats;
-    batch_norm_population(net, all);
-    latents.assign(d.latent_count * L, 0.0f);
-    auto cache = make_encoder_cache();
-    for (std::size_t i = 0; i < d.latent_count; i += 16) {
-      const std::size_t n = std::min<std::size_t>(16, d.latent_count - i);
-      encode_batch(net, std::span<const float* const>(all).subspan(i, n), false, *cache,
-                   std::span<float>(latents).subspan(i * L, n * L));
+  WorkerPool pool(o.batched ? o.threads : 1);
+  const ParallelFn parallel = [&pool](std::size_t count, const std::function<void(std::size_t)>& body) { pool.run(count, body); };
+  // Decoder blocks: on the pool (batched), or on threads started per step (the first schedule).
+  auto run_blocks = [&](std::size_t count, const std::function<void(std::size_t)>& body) {
+    if (o.batched) {
+      pool.run(count, body);
+    } else {
+      cluster::parallel_each(count, o.threads, body);
     }
+  };
+  const ParallelFn encoder_parallel = o.batched ? parallel : ParallelFn{};
+
+  auto encode_into = [&](std::span<const std::uint32_t> which, std::vector<float>& out) {
+    std::vector<const float*> all(which.size());
+    for (std::size_t i = 0; i < which.size(); ++i) all[i] = d.encoder_inputs.data() + std::size_t(which[i]) * d.floats;
+    batch_norm_population(net, all, 64, encoder_parallel);
+    out.assign(which.size() * L, 0.0f);
+    auto cache = make_encoder_cache();
+    for (std::size_t i = 0; i < which.size(); i += 16) {
+      const std::size_t n = std::min<std::size_t>(16, which.size() - i);
+      encode_batch(net, std::span<const float* const>(all).subspan(i, n), false, *cache,
+                   std::span<float>(out).subspan(i * L, n * L), encoder_parallel);
+    }
+  };
+  auto encode_all = [&] {  // inference-mode latents of every encoder input, population statistics
+    std::vector<std::uint32_t> every(d.latent_count);
+    std::iota(every.begin(), every.end(), 0u);
+    encode_into(every, latents);
+  };
+
+  // Early stopping's measure: RMSE (the data's units) of the model as it stands on the held-out
+  // pairs of a seeded draw of texels, clamped at 0 as decode() clamps.
+  std::vector<std::uint32_t> validation_texels;
+  if (!held_pairs.empty()) {
+    validation_texels.resize(d.texels);
+    std::iota(validation_texels.begin(), validation_texels.end(), 0u);
+    std::mt19937_64 rng(mix(o.seed, 0x5eed));
+    std::shuffle(validation_texels.begin(), validation_texels.end(), rng);
+    validation_texels.resize(std::min<std::size_t>(o.validation_texels, d.texels));
+    std::sort(validation_texels.begin(), validation_texels.end());
+  }
+  auto validation_rmse = [&]() -> double {
+    std::vector<float> vl;
+    if (!state.finetuning) {
+      std::vector<std::uint32_t> which(validation_texels.size());
+      for (std::size_t i = 0; i < which.size(); ++i) which[i] = d.latent_of[validation_texels[i]];
+      encode_into(which, vl);
+    }
+    const std::size_t n = held_pairs.size(), in = L + 4;
+    std::vector<double> sums(validation_texels.size(), 0.0);
+    run_blocks(validation_texels.size(), [&](std::size_t i) {
+      const std::uint32_t t = validation_texels[i];
+      const float* latent = state.finetuning ? latents.data() + std::size_t(d.latent_of[t]) * L : vl.data() + i * L;
+      std::vector<float> x(in * n), y(3 * n);
+      for (std::size_t j = 0; j < n; ++j) {
+        float* col = x.data() + j * in;
+        std::copy_n(latent, L, col);
+        const vec2 li = d.light_stereo[held_pairs[j] / d.views], vo = d.view_stereo[held_pairs[j] % d.views];
+        col[L] = li.x, col[L + 1] = li.y, col[L + 2] = vo.x, col[L + 3] = vo.y;
+      }
+      decoder_forward(net, x, n, y);
+      const float scale = d.scales.empty() ? 1.0f : d.scales[t];
+      const float* tt = d.targets.data() + std::size_t(t) * d.floats;
+      double sq = 0.0;
+      for (std::size_t j = 0; j < n; ++j)
+        for (std::size_t c = 0; c < 3; ++c) {
+          const double e = double(std::max(y[j * 3 + c], 0.0f) * scale) - double(tt[std::size_t(held_pairs[j]) * 3 + c]);
+          sq += e * e;
+        }
+      sums[i] = sq;
+    });
+    double total = 0.0;
+    for (double v : sums) total += v;
+    return std::sqrt(total / double(3 * n * validation_texels.size())) * double(result.preprocessing.target_max);
   };
 
   const auto t0 = std::chrono::steady_clock::now();
@@ -206,6 +379,28 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     state.elapsed_s = before;
     return ok;
   };
+  auto keep_best = [&] {
+    state.best_parameters = net.parameters;
+    state.best_running_mean = net.running_mean;
+    state.best_running_var = net.running_var;
+    state.best_finetuning = state.finetuning;
+    state.best_latents = state.finetuning ? latents : std::vector<float>{};
+  };
+  auto restore_best = [&] {
+    net.parameters = state.best_parameters;
+    net.running_mean = state.best_running_mean;
+    net.running_var = state.best_running_var;
+    if (state.best_finetuning) latents = state.best_latents;
+  };
+  auto start_finetuning = [&] {
+    encode_all();
+    state.finetuning = true;
+    if (adam) {
+      state.latent_moment1.assign(latents.size(), 0.0f);
+      state.latent_moment2.assign(latents.size(), 0.0f);
+    }
+    state.stale = 0;
+  };
 
   std::vector<std::uint32_t> order(d.texels);
   std::size_t order_epoch = std::size_t(-1);
@@ -213,11 +408,13 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
   std::vector<std::vector<float>> chunk_gradients;
   std::vector<std::vector<float>> chunk_latent_gradients;
   std::vector<double> chunk_loss;
-  std::vector<std::uint32_t> pair_index(d.pairs);
+  std::vector<std::uint32_t> pair_index(trainable);
   auto cache = make_encoder_cache();
   double last_report = -1e30;
   std::size_t steps_this_run = 0;
+  double step_rate = lr;
 
+  double outside_steps = 0.0;  // validation time, kept out of step_seconds
   while (state.epoch < o.epochs) {
     const double now = elapsed();
     if (o.max_seconds > 0.0 && now >= o.max_seconds) break;
@@ -226,10 +423,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     const bool want_finetune = o.finetune_fraction > 0.0f &&
                                (state.epoch >= autoencoder_epochs ||
                                 (o.max_seconds > 0.0 && now >= o.max_seconds * (1.0 - o.finetune_fraction)));
-    if (want_finetune && !state.finetuning) {
-      encode_all();
-      state.finetuning = true;
-    }
+    if (want_finetune && !state.finetuning) start_finetuning();
     if (order_epoch != state.epoch) {
       std::iota(order.begin(), order.end(), 0u);
       std::mt19937_64 shuffle_rng(mix(o.seed, state.epoch));
@@ -245,96 +439,177 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     if (!state.finetuning) {
       std::vector<const float*> ptrs(batch);
       for (std::size_t b = 0; b < batch; ++b) ptrs[b] = d.encoder_inputs.data() + std::size_t(d.latent_of[texels[b]]) * d.floats;
-      encode_batch(net, ptrs, true, *cache, batch_latents);
+      encode_batch(net, ptrs, true, *cache, batch_latents, encoder_parallel);
     } else {
       for (std::size_t b = 0; b < batch; ++b)
         std::copy_n(latents.data() + std::size_t(d.latent_of[texels[b]]) * L, L, batch_latents.data() + b * L);
     }
-    // The samples of each texel: every pair, or a seeded draw without replacement.
+    // The samples of each texel: every trainable pair, or a seeded draw without replacement.
     std::vector<std::vector<std::uint32_t>> pairs(batch);
     for (std::size_t b = 0; b < batch; ++b) {
-      if (per_texel == d.pairs) {
-        pairs[b].resize(d.pairs);
-        std::iota(pairs[b].begin(), pairs[b].end(), 0u);
+      if (per_texel == trainable) {
+        pairs[b] = train_pairs;
       } else {
         std::iota(pair_index.begin(), pair_index.end(), 0u);
         std::mt19937_64 rng(mix(mix(o.seed, state.epoch), state.step * 977 + b));
         for (std::size_t i = 0; i < per_texel; ++i) {
-          std::uniform_int_distribution<std::size_t> pick(i, d.pairs - 1);
+          std::uniform_int_distribution<std::size_t> pick(i, trainable - 1);
           std::swap(pair_index[i], pair_index[pick(rng)]);
         }
-        pairs[b].assign(pair_index.begin(), pair_index.begin() + std::ptrdiff_t(per_texel));
+        pairs[b].resize(per_texel);
+        for (std::size_t i = 0; i < per_texel; ++i) pairs[b][i] = train_pairs[pair_index[i]];
       }
     }
+    // The step's samples, item-major, in blocks: fixed-size across texels (batched) or within one
+    // texel (the first schedule). Each block: one matrix product per layer, its own gradient.
     std::vector<Chunk> chunks;
-    for (std::size_t b = 0; b < batch; ++b)
-      for (std::size_t s = 0; s < per_texel; s += kChunk) chunks.push_back({b, s, std::min(per_texel, s + kChunk)});
+    const std::size_t total = batch * per_texel;
+    if (o.batched) {
+      for (std::size_t s0 = 0; s0 < total; s0 += kBlock) chunks.push_back({s0, std::min(total, s0 + kBlock)});
+    } else {
+      for (std::size_t b = 0; b < batch; ++b)
+        for (std::size_t s0 = 0; s0 < per_texel; s0 += kChunk)
+          chunks.push_back({b * per_texel + s0, b * per_texel + std::min(per_texel, s0 + kChunk)});
+    }
     chunk_gradients.resize(chunks.size());
     chunk_latent_gradients.resize(chunks.size());
     chunk_loss.assign(chunks.size(), 0.0);
     const float weight = 1.0f / float(3 * batch * per_texel);
     const std::size_t in = L + 4;
-    cluster::parallel_each(chunks.size(), o.threads, [&](std::size_t ci) {
+    run_blocks(chunks.size(), [&](std::size_t ci) {
       const Chunk& c = chunks[ci];
-      const std::size_t n = c.end - c.begin, t = texels[c.item];
+      const std::size_t n = c.end - c.begin, first_item = c.begin / per_texel;
       std::vector<float> x(in * n), target(3 * n), dx(in * n), scales;
-      const float* latent = batch_latents.data() + c.item * L;
-      const float* tt = d.targets.data() + t * d.floats;
+      if (!d.scales.empty()) scales.resize(n);
       for (std::size_t j = 0; j < n; ++j) {
-        const std::uint32_t pair = pairs[c.item][c.begin + j];
+        const std::size_t sample = c.begin + j, item = sample / per_texel, t = texels[item];
+        const std::uint32_t pair = pairs[item][sample % per_texel];
         float* col = x.data() + j * in;
-        std::copy_n(latent, L, col);
+        std::copy_n(batch_latents.data() + item * L, L, col);
         const vec2 li = d.light_stereo[pair / d.views], vo = d.view_stereo[pair % d.views];
         col[L] = li.x, col[L + 1] = li.y, col[L + 2] = vo.x, col[L + 3] = vo.y;
-        std::copy_n(tt + std::size_t(pair) * 3, 3, target.data() + j * 3);
+        std::copy_n(d.targets.data() + t * d.floats + std::size_t(pair) * 3, 3, target.data() + j * 3);
+        if (!scales.empty()) scales[j] = d.scales[t];
       }
-      if (!d.scales.empty()) scales.assign(n, d.scales[t]);
       auto& g = chunk_gradients[ci];
       g.assign(net.parameters.size(), 0.0f);
       chunk_loss[ci] = decoder_loss_gradient(net, x, target, scales, n, weight, g, dx);
+      // Latent gradients of the items this block covers (from first_item on).
       auto& dl = chunk_latent_gradients[ci];
-      dl.assign(L, 0.0f);
-      for (std::size_t j = 0; j < n; ++j)
-        for (std::size_t k = 0; k < L; ++k) dl[k] += dx[j * in + k];
+      dl.assign(((c.end - 1) / per_texel - first_item + 1) * L, 0.0f);
+      for (std::size_t j = 0; j < n; ++j) {
+        const std::size_t item = (c.begin + j) / per_texel - first_item;
+        for (std::size_t k = 0; k < L; ++k) dl[item * L + k] += dx[j * in + k];
+      }
     });
     std::fill(gradient.begin(), gradient.end(), 0.0f);
     std::vector<float> latent_gradient(batch * L, 0.0f);
     for (std::size_t ci = 0; ci < chunks.size(); ++ci) {
       const auto& g = chunk_gradients[ci];
       for (std::size_t i = net.decoder_begin; i < g.size(); ++i) gradient[i] += g[i];
-      for (std::size_t k = 0; k < L; ++k) latent_gradient[chunks[ci].item * L + k] += chunk_latent_gradients[ci][k];
+      const std::size_t first_item = chunks[ci].begin / per_texel;
+      const auto& dl = chunk_latent_gradients[ci];
+      for (std::size_t k = 0; k < dl.size(); ++k) latent_gradient[first_item * L + k] += dl[k];
       state.epoch_loss += chunk_loss[ci];
       state.epoch_count += double(3 * (chunks[ci].end - chunks[ci].begin));
     }
-    if (!state.finetuning) encoder_backward(net, *cache, latent_gradient, gradient);
-    float step = lr;
+    if (!state.finetuning) encoder_backward(net, *cache, latent_gradient, gradient, encoder_parallel);
+    // The schedule's rate for this step.
+    double rate = lr;
+    if (o.schedule == LearningRateSchedule::Cosine) {
+      double done = (double(state.epoch) + double(state.step) / double(steps_per_epoch)) / double(o.epochs);
+      if (o.max_seconds > 0.0) done = std::max(done, now / o.max_seconds);
+      done = std::clamp(done, 0.0, 1.0);
+      rate = lr * (o.schedule_floor + (1.0 - o.schedule_floor) * 0.5 * (1.0 + std::cos(pi * done)));
+    }
+    step_rate = rate;
+    double clip = 1.0;  // the factor that brings the gradient's norm down to max_gradient_norm
     if (o.max_gradient_norm > 0.0f) {
       double norm2 = 0.0;
       for (float g : gradient) norm2 += double(g) * g;
       if (state.finetuning)
         for (float g : latent_gradient) norm2 += double(g) * g;
       const double norm = std::sqrt(norm2);
-      if (norm > double(o.max_gradient_norm)) step = float(double(lr) * double(o.max_gradient_norm) / norm);
+      if (norm > double(o.max_gradient_norm)) clip = double(o.max_gradient_norm) / norm;
     }
-    for (std::size_t i = 0; i < gradient.size(); ++i) net.parameters[i] -= step * gradient[i];
-    if (state.finetuning)
-      for (std::size_t b = 0; b < batch; ++b)
-        for (std::size_t k = 0; k < L; ++k)
-          latents[std::size_t(d.latent_of[texels[b]]) * L + k] -= step * latent_gradient[b * L + k];
+    if (!adam) {
+      const float step = float(rate * clip);
+      for (std::size_t i = 0; i < gradient.size(); ++i) net.parameters[i] -= step * gradient[i];
+      if (state.finetuning)
+        for (std::size_t b = 0; b < batch; ++b)
+          for (std::size_t k = 0; k < L; ++k)
+            latents[std::size_t(d.latent_of[texels[b]]) * L + k] -= step * latent_gradient[b * L + k];
+    } else {
+      ++state.adam_steps;
+      const double b1 = o.adam_beta1, b2 = o.adam_beta2, t = double(state.adam_steps);
+      const float step = float(rate * std::sqrt(1.0 - std::pow(b2, t)) / (1.0 - std::pow(b1, t)));
+      const float c1 = float(b1), c2 = float(b2), eps = o.adam_epsilon, scale = float(clip);
+      auto update = [&](float& w, float& m, float& v, float g) {
+        g *= scale;
+        m = c1 * m + (1.0f - c1) * g;
+        v = c2 * v + (1.0f - c2) * g * g;
+        w -= step * m / (std::sqrt(v) + eps);
+      };
+      // The encoder is frozen while fine-tuning: its moments stay as they were.
+      for (std::size_t i = state.finetuning ? net.decoder_begin : 0; i < gradient.size(); ++i)
+        update(net.parameters[i], state.moment1[i], state.moment2[i], gradient[i]);
+      if (state.finetuning) {
+        // A latent shared by several texels of the batch (clusters) gets one update of their sum.
+        std::vector<std::uint32_t> touched;
+        std::vector<float> summed;
+        for (std::size_t b = 0; b < batch; ++b) {
+          const std::uint32_t id = d.latent_of[texels[b]];
+          auto at = std::find(touched.begin(), touched.end(), id);
+          std::size_t slot = std::size_t(at - touched.begin());
+          if (at == touched.end()) {
+            touched.push_back(id);
+            summed.resize(summed.size() + L, 0.0f);
+          }
+          for (std::size_t k = 0; k < L; ++k) summed[slot * L + k] += latent_gradient[b * L + k];
+        }
+        for (std::size_t u = 0; u < touched.size(); ++u)
+          for (std::size_t k = 0; k < L; ++k) {
+            const std::size_t at = std::size_t(touched[u]) * L + k;
+            update(latents[at], state.latent_moment1[at], state.latent_moment2[at], summed[u * L + k]);
+          }
+      }
+    }
     if (!std::isfinite(state.epoch_loss))
       return fail(ErrorKind::InvalidArgument,
                   "training diverged at epoch {} step {} (loss {}): lower the learning rate ({}) or clip the gradient "
                   "(max_gradient_norm {})",
-                  state.epoch + 1, state.step + 1, state.epoch_loss, lr, o.max_gradient_norm);
+                  state.epoch + 1, state.step + 1, state.epoch_loss, rate, o.max_gradient_norm);
     ++steps_this_run;
     ++result.steps_done;
+    result.samples_done += total;
     ++state.step;
     const bool epoch_end = state.step == steps_per_epoch;
+    bool stop_now = false;
     if (epoch_end) {
       state.last_epoch_loss = state.epoch_count > 0.0 ? state.epoch_loss / state.epoch_count : 0.0;
       state.epoch_loss = state.epoch_count = 0.0;
       state.step = 0;
       ++state.epoch;
+      if (!held_pairs.empty()) {
+        const auto v0 = std::chrono::steady_clock::now();
+        state.last_rmse = validation_rmse();
+        outside_steps += std::chrono::duration<double>(std::chrono::steady_clock::now() - v0).count();
+        if (state.best_rmse < 0.0 || state.last_rmse < state.best_rmse) {
+          state.best_rmse = state.last_rmse;
+          state.best_epoch = state.epoch;
+          state.stale = 0;
+          keep_best();
+        } else if (++state.stale >= o.patience && o.patience > 0) {
+          // Patience spent: the autoencoder hands its best weights to fine-tuning, or training ends.
+          restore_best();
+          if (!state.finetuning && o.finetune_fraction > 0.0f) {
+            start_finetuning();
+          } else {
+            stop_now = true;
+            result.stopped_early = true;
+          }
+        }
+      }
     }
     const double t = elapsed();
     if (o.progress && (epoch_end || t - last_report >= o.progress_interval_s)) {
@@ -346,6 +621,8 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
       p.steps_per_epoch = steps_per_epoch;
       p.finetuning = state.finetuning;
       p.loss = epoch_end ? state.last_epoch_loss : (state.epoch_count > 0.0 ? state.epoch_loss / state.epoch_count : 0.0);
+      p.learning_rate = step_rate;
+      p.validation_rmse = state.last_rmse;
       p.elapsed_s = t;
       const double done = double(state.epoch) + double(state.step) / double(steps_per_epoch);
       double fraction = done / double(o.epochs);
@@ -356,12 +633,23 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     }
     if (epoch_end && o.checkpoint_every && state.epoch % o.checkpoint_every == 0)
       if (auto ok = write_checkpoint(); !ok) return std::unexpected(ok.error());
+    if (stop_now) break;
+  }
+  result.step_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() - outside_steps;
+  // Early stopping keeps the best model it measured, whether or not patience ran out.
+  const bool finished = state.epoch >= o.epochs || result.stopped_early ||
+                        (o.max_seconds > 0.0 && elapsed() >= o.max_seconds);
+  if (finished && !held_pairs.empty() && state.best_rmse >= 0.0) {
+    restore_best();
+    state.finetuning = state.best_finetuning;
   }
   if (!state.finetuning) encode_all();
   if (auto ok = write_checkpoint(); !ok) return std::unexpected(ok.error());
 
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   result.epochs_done = state.epoch;
+  result.validation_rmse = state.best_rmse;
+  result.best_epoch = std::size_t(state.best_epoch);
   // A run that ends inside an epoch (a time budget, stop_after_steps) reports that epoch so far.
   result.final_loss = state.epoch_count > 0.0 ? state.epoch_loss / state.epoch_count : state.last_epoch_loss;
   NeuralBtf& m = result.model;

@@ -14,6 +14,7 @@ module;
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 export module weft.btf.training;
 import weft.core;
@@ -63,6 +64,11 @@ struct Network {
 // The decoder as the model stores it (weights copied out of the flat vector).
 [[nodiscard]] Decoder decoder_of(const Network& network);
 
+// Runs body(i) for every i in [0, count), in any order and on any threads (the trainer's
+// pool); empty: inline. The encoder's items run through it; what couples them is summed in
+// item order afterwards, so results do not depend on how it runs them.
+using ParallelFn = std::function<void(std::size_t count, const std::function<void(std::size_t)>& body)>;
+
 // Encoder forward pass over a batch. `inputs[b]` is one preprocessed ABRDF (lights * views * 3
 // floats in Btf's layout). Training mode normalises with the batch's statistics (over batch
 // and pixels) and updates the running ones (momentum 0.1); inference mode uses the running
@@ -72,17 +78,18 @@ struct EncoderCacheDeleter { void operator()(EncoderCache* cache) const; };
 using EncoderCachePtr = std::unique_ptr<EncoderCache, EncoderCacheDeleter>;
 [[nodiscard]] EncoderCachePtr make_encoder_cache();
 void encode_batch(Network& network, std::span<const float* const> inputs, bool training, EncoderCache& cache,
-                  std::span<float> latents);  // batch * latent
+                  std::span<float> latents, const ParallelFn& parallel = {});  // latents: batch * latent
 // Sets batch norm's running statistics to the population's: each channel's mean and
 // variance over every input (stage by stage, in chunks of `chunk` inputs). Training ends
 // with this before the latents are encoded, so inference normalises with the statistics of
 // the data rather than a momentum average of the last batches (whose inputs, in a
 // clustered model's batches, repeat and make the batch variance small).
-void batch_norm_population(Network& network, std::span<const float* const> inputs, std::size_t chunk = 64);
+void batch_norm_population(Network& network, std::span<const float* const> inputs, std::size_t chunk = 64,
+                           const ParallelFn& parallel = {});
 // Adds d(loss)/d(encoder parameters) to `gradient` (parameters.size() floats) from
 // d(loss)/d(latents), using the cache of the last training-mode encode_batch.
 void encoder_backward(const Network& network, const EncoderCache& cache, std::span<const float> latent_gradient,
-                      std::span<float> gradient);
+                      std::span<float> gradient, const ParallelFn& parallel = {});
 
 // The decoder over `count` samples. `inputs` is column-major (input_size x count: each
 // sample's latent, stereo(ω_i), stereo(ω_o) contiguous). Returns outputs (3 x count,
@@ -103,9 +110,19 @@ struct TrainProgress {
   std::size_t step = 0, steps_per_epoch = 0;
   bool finetuning = false;            // stage 2: decoder + latents, encoder frozen
   double loss = 0.0;                  // mean squared error of the epoch so far (targets' units)
+  double learning_rate = 0.0;         // this step's (the schedule's)
+  double validation_rmse = -1.0;      // the last held-out RMSE (the data's units); < 0: none yet
   double elapsed_s = 0.0, eta_s = 0.0, fraction = 0.0;
 };
 using ProgressFn = std::function<void(const TrainProgress&)>;
+
+// The paper trains with plain SGD; Adam (Kingma & Ba) is what the field uses now.
+enum class Optimizer : std::uint8_t { Sgd, Adam };
+// Constant: the learning rate throughout (the paper's). Cosine: lr * (f + (1 - f) (1 + cos(π p)) / 2)
+// with p the fraction of the planned training done (epochs, or the time budget) and f the floor.
+enum class LearningRateSchedule : std::uint8_t { Constant, Cosine };
+[[nodiscard]] std::string_view to_string(Optimizer optimizer);
+[[nodiscard]] std::string_view to_string(LearningRateSchedule schedule);
 
 struct TrainOptions {
   // 0: the plain neural BTF (a latent per texel). k > 0: PCA + k-means++ (weft::btf::cluster_abrdfs)
@@ -114,12 +131,26 @@ struct TrainOptions {
   std::uint32_t pca_components = 16;
   bool texel_scales = true;           // clustered: the per-texel luminance scale (the paper's fix)
   NetworkShape network{};             // lights / views are taken from the BTF
-  float learning_rate = 0.0f;         // 0: the paper's, 0.05 plain, 0.08 clustered
-  std::uint32_t batch = 5;            // texels per SGD step (each with its directions)
+  Optimizer optimizer = Optimizer::Sgd;
+  // 0: the paper's for SGD (0.05 plain, 0.08 clustered); 0.001 for Adam.
+  float learning_rate = 0.0f;
+  float adam_beta1 = 0.9f, adam_beta2 = 0.999f, adam_epsilon = 1e-8f;
+  LearningRateSchedule schedule = LearningRateSchedule::Constant;
+  float schedule_floor = 0.05f;       // cosine: the last step's rate as a fraction of learning_rate
+  std::uint32_t batch = 5;            // texels per step (each with its directions); the paper's 5
   // Light/view pairs per texel in a step, drawn without replacement; 0: all of them (the
   // paper's loss over the whole ABRDF).
   std::uint32_t directions_per_texel = 0;
   std::uint32_t epochs = 10;          // an epoch visits every texel once, in a seeded shuffle
+  // Early stopping on held-out directions: every holdout_every-th light/view pair (l * views + v
+  // ≡ holdout_every / 2 mod holdout_every) is never trained on; at each epoch end the model's RMSE
+  // on those pairs of up to validation_texels texels (a seeded draw) is measured, and the best
+  // model so far is kept. After `patience` epochs without a better one, the autoencoder stage
+  // ends (the best weights restored; fine-tuning starts) or, fine-tuning, training ends. The
+  // result is the best model seen. 0: no held-out pairs (every pair trains), no early stopping.
+  std::uint32_t holdout_every = 0;
+  std::uint32_t patience = 3;         // with holdout_every; 0: keep the best, never stop early
+  std::uint32_t validation_texels = 512;
   // Ours, not the paper's: a step whose gradient (parameters and latents together) is longer
   // than this is scaled down to it. Batch norm over a batch of near-equal inputs divides by
   // a tiny deviation, and one such step can throw SGD off; the clip keeps it finite. 0: off.
@@ -131,6 +162,13 @@ struct TrainOptions {
   float finetune_fraction = 0.25f;
   std::uint64_t seed = 1;
   std::size_t threads = 0;            // 0: all cores; results do not depend on it
+  // How a step uses the threads. true: the step's samples go through the decoder as one
+  // matrix product per layer cut into fixed 256-sample blocks (across texels), the encoder's
+  // batch items run in parallel, on a pool of threads kept for the whole training. false:
+  // the first implementation's schedule (blocks of at most 512 samples of one texel, the
+  // encoder on one thread, threads started per step), kept as the benchmark's baseline. The
+  // two round differently; each is deterministic whatever the thread count.
+  bool batched = true;
   std::filesystem::path checkpoint;   // empty: none. Written at epoch ends and when stopping.
   std::uint32_t checkpoint_every = 1; // epochs
   bool resume = false;                // continue from `checkpoint` when it exists
@@ -146,10 +184,17 @@ struct TrainResult {
   Network network;
   Preprocessing preprocessing;        // what the encoder's inputs were standardised with
   std::size_t epochs_done = 0, steps_done = 0;
+  std::size_t samples_done = 0;       // decoder samples (texel, light, view) of this run's steps
   double final_loss = 0.0;            // the last (or the unfinished) epoch's mean squared error (targets' units)
   double seconds = 0.0;               // this run's training time (clustering excluded)
+  double step_seconds = 0.0;          // of which in steps (no final encoding, no validation)
   double cluster_seconds = 0.0;
   std::uint32_t clusters = 0;         // clusters actually used (k-means drops empty ones)
+  // With holdout_every: the kept model's held-out RMSE (the data's units), the epoch it was
+  // measured at (1-based), and whether patience ended the training.
+  double validation_rmse = -1.0;
+  std::size_t best_epoch = 0;
+  bool stopped_early = false;
 };
 
 // Trains on `btf` (validated first). InvalidArgument for a bad option (named, with its
@@ -182,6 +227,14 @@ struct TrainState {
   double epoch_loss = 0.0, epoch_count = 0.0;
   double last_epoch_loss = 0.0;
   std::vector<float> parameters, running_mean, running_var, latents;
+  // Adam: the step count and the moments of the parameters and (fine-tuning) the latents.
+  std::uint64_t adam_steps = 0;
+  std::vector<float> moment1, moment2, latent_moment1, latent_moment2;
+  // Early stopping: the best held-out RMSE so far, its epoch, epochs since, and that model.
+  double best_rmse = -1.0, last_rmse = -1.0;
+  std::uint64_t best_epoch = 0, stale = 0;
+  bool best_finetuning = false;
+  std::vector<float> best_parameters, best_running_mean, best_running_var, best_latents;
 };
 Result<void> save_checkpoint(const std::filesystem::path& file, const TrainState& state);
 Result<TrainState> load_checkpoint(const std::filesystem::path& file);
