@@ -1,6 +1,7 @@
 // weft-bench-fur: shell fur from one photo (docs/fur.md), measured.
 //
-//   weft-bench-fur [--accuracy] [--speed] [--frames K] [--size WxH] [--photo PATH]
+//   weft-bench-fur [--accuracy] [--speed] [--unfurred] [--frames K] [--size WxH] [--photo PATH]
+//                  [--scene PATH] [--object NAME]
 //
 // Accuracy: the photo on a quad seen straight from above under the photo's lighting (light
 // from the camera, Lambert, no sky), one pixel per texel, RMSE of the render's luminance
@@ -10,6 +11,11 @@
 // Speed: frame time of a frame that clears and draws fur (FurFrame), against vertex count
 // and N, for the single-photo method and the naive method with N+1 shell textures, with the
 // texture memory each needs, side by side. The machine is printed with the tables.
+// Unfurred: the fur against the unfurred mesh, whole frames through the renderer (shadow
+// map, background, tone map, readback) of one scene (default examples/fur/scenes/fur_spot.json,
+// Spot at 960x720), the fur object in its fur material and in a plain standard material,
+// alternating frame by frame; then the same frames with every pass submitted and timed alone
+// (on lavapipe the GPU timestamps leave out vertex work, so they cannot say where time goes).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -28,13 +34,15 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 import weft.core;
+import weft.feature;
+import weft.renderer;
 import weft.gpu;
 import weft.frame;
 import weft.graph;
 import weft.image;
 import weft.scene;
 import weft.pass.shell_fur;
-import weft.test.fur_frame;
+import weft.example.fur_frame;
 import weft.example.fur_resample;
 
 using namespace weft;
@@ -312,31 +320,174 @@ void speed(Gpu& g, const ShellFurPass& pass, const image::Image8& photo_image, c
   for (std::size_t m = 2; m < meshes.size(); ++m) run(meshes[m], 15, false);
 }
 
+// ---- against the unfurred mesh ----------------------------------------------------------
+
+std::string load_average() {
+  std::ifstream in("/proc/loadavg");
+  std::string one, five, fifteen;
+  in >> one >> five >> fifteen;
+  return one + " " + five + " " + fifteen;
+}
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return -1.0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+void unfurred(Gpu& g, const fs::path& scene_path, const std::string& object_name, std::uint32_t width,
+              std::uint32_t height, int frames) {
+  const scene::Scene furred = must(scene::load_scene(scene_path), "loading the scene");
+  std::size_t object = furred.objects.size();
+  for (std::size_t i = 0; i < furred.objects.size(); ++i) {
+    const auto& o = furred.objects[i];
+    if (object_name.empty() ? furred.materials.at(o.material).type == "shell_fur" : o.name == object_name) {
+      object = i;
+      break;
+    }
+  }
+  if (object == furred.objects.size()) {
+    std::fprintf(stderr, "weft-bench-fur: %s has no %s\n", scene_path.string().c_str(),
+                 object_name.empty() ? "object in a fur material" : ("object '" + object_name + "'").c_str());
+    std::exit(2);
+  }
+  // The same scene with the object in a plain standard material of the fur's tint.
+  scene::Scene plain = furred;
+  scene::Material material;
+  material.name = "plain (bench)";
+  const auto& params = furred.materials.at(furred.objects[object].material).params;
+  if (params.contains("tint") && params["tint"].is_array() && params["tint"].size() == 3)
+    material.standard.base_color = vec3(params["tint"][0].get<float>(), params["tint"][1].get<float>(), params["tint"][2].get<float>());
+  material.standard.roughness = 0.8f;
+  plain.materials.push_back(material);
+  plain.objects[object].material = std::uint32_t(plain.materials.size() - 1);
+
+  renderer::Renderer fur_renderer = must(renderer::Renderer::create(g.device), "renderer");
+  renderer::Renderer plain_renderer = must(renderer::Renderer::create(g.device), "renderer");
+  renderer::RenderOptions options{.width = width, .height = height};
+  struct Run {
+    std::vector<double> ms;
+    std::vector<FrameStats> stats;
+  };
+  auto frame = [&](renderer::Renderer& r, const scene::Scene& s, Run& run, bool serial) {
+    options.serial_passes = serial;
+    const auto t0 = std::chrono::steady_clock::now();
+    auto f = must(r.render(s, options), "rendering");
+    run.ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    run.stats.push_back(std::move(f.stats));
+  };
+  const std::string load_before = load_average();
+  // Warm-up: the first frames compile shaders and upload everything.
+  Run warm;
+  for (int i = 0; i < 2; ++i) {
+    frame(fur_renderer, furred, warm, false);
+    frame(plain_renderer, plain, warm, false);
+  }
+  Run fur, flat, fur_serial, flat_serial;
+  for (int i = 0; i < frames; ++i) {
+    frame(fur_renderer, furred, fur, false);
+    frame(plain_renderer, plain, flat, false);
+  }
+  for (int i = 0; i < frames; ++i) {
+    frame(fur_renderer, furred, fur_serial, true);
+    frame(plain_renderer, plain, flat_serial, true);
+  }
+  const std::string load_after = load_average();
+  std::vector<double> ratios;
+  for (int i = 0; i < frames; ++i) ratios.push_back(fur.ms[i] / flat.ms[i]);
+
+  std::printf("\n### Fur against the unfurred mesh: %s, object '%s', %ux%u, medium quality\n\n",
+              scene_path.filename().string().c_str(), furred.objects[object].name.c_str(), width ? width : furred.output.width,
+              height ? height : furred.output.height);
+  std::printf("Whole frames through the renderer (Renderer::render: prepare, graph, execute with the shadow map, "
+              "background and tone map, readback), the object in its fur material and in a plain standard material "
+              "(the fur's tint, roughness 0.8), alternating, %d of each after 2 warm-ups. Load average %s before, %s "
+              "after.\n\n",
+              frames, load_before.c_str(), load_after.c_str());
+  auto sorted = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v;
+  };
+  const auto a = sorted(fur.ms), b = sorted(flat.ms);
+  std::printf("| frame | median ms | min ms | max ms |\n|:--|--:|--:|--:|\n");
+  std::printf("| unfurred (plain material) | %.1f | %.1f | %.1f |\n", median_of(b), b.front(), b.back());
+  std::printf("| fur | %.1f | %.1f | %.1f |\n", median_of(a), a.front(), a.back());
+  std::printf("| **fur / unfurred** | **%.2f×** (median of per-pair ratios %.2f×) | %.2f× | |\n\n", median_of(a) / median_of(b),
+              median_of(ratios), a.front() / b.front());
+
+  // Where the time goes: each pass alone (serial), and its GPU timestamps.
+  std::printf("Per pass, medians: GPU timestamps from the normal frames; wall = the pass submitted and waited for "
+              "alone (serial frames: %.1f ms fur, %.1f ms unfurred).\n\n",
+              median_of(fur_serial.ms), median_of(flat_serial.ms));
+  std::printf("| pass | fur: GPU ms | fur: wall ms alone | unfurred: GPU ms | unfurred: wall ms alone |\n|:--|--:|--:|--:|--:|\n");
+  std::vector<std::string> names;
+  for (const auto* run : {&fur.stats, &flat.stats})
+    for (const auto& p : run->front().passes)
+      if (std::find(names.begin(), names.end(), p.name) == names.end()) names.push_back(p.name);
+  auto pass_median = [](const std::vector<FrameStats>& stats, const std::string& name, bool wall) {
+    std::vector<double> v;
+    for (const auto& f : stats)
+      for (const auto& p : f.passes)
+        if (p.name == name) v.push_back(wall ? p.wall_ms : p.gpu_ms);
+    return median_of(v);
+  };
+  auto cell = [](double v) { return v < 0 ? std::string("—") : weft::format("{:.1f}", v); };
+  for (const auto& name : names)
+    std::printf("| %s | %s | %s | %s | %s |\n", name.c_str(), cell(pass_median(fur.stats, name, false)).c_str(),
+                cell(pass_median(fur_serial.stats, name, true)).c_str(), cell(pass_median(flat.stats, name, false)).c_str(),
+                cell(pass_median(flat_serial.stats, name, true)).c_str());
+  std::fflush(stdout);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool do_accuracy = false, do_speed = false;
+  bool do_accuracy = false, do_speed = false, do_unfurred = false, size_given = false;
   int frames = 10;
   std::uint32_t width = 640, height = 480;
-  fs::path photo_path;
+  fs::path photo_path, scene_path = fs::path(WEFT_SOURCE_DIR) / "examples" / "fur" / "scenes" / "fur_spot.json";
+  std::string object_name;
+  const char* usage =
+      "usage: weft-bench-fur [--accuracy] [--speed] [--unfurred] [--frames K] [--size WxH] [--photo PATH]\n"
+      "                      [--scene PATH] [--object NAME]\n"
+      "  --accuracy  RMSE against the photo for N = 1..64 layers, band and strand\n"
+      "  --speed     frame time against vertices and N, single photo against N+1 textures (640x480)\n"
+      "  --unfurred  whole frames of --scene (default examples/fur/scenes/fur_spot.json) with the fur object\n"
+      "              (--object, default the first in a fur material) in its fur and in a plain material,\n"
+      "              alternating, and each pass timed alone (size: the scene's unless --size)\n"
+      "  no section named: all three\n";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--accuracy") {
       do_accuracy = true;
     } else if (a == "--speed") {
       do_speed = true;
+    } else if (a == "--unfurred") {
+      do_unfurred = true;
+    } else if (a == "--scene" && i + 1 < argc) {
+      scene_path = argv[++i];
+    } else if (a == "--object" && i + 1 < argc) {
+      object_name = argv[++i];
+    } else if (a == "--help" || a == "-h") {
+      std::printf("%s", usage);
+      return 0;
     } else if (a == "--frames" && i + 1 < argc) {
       frames = std::max(1, std::atoi(argv[++i]));
     } else if (a == "--size" && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &width, &height) != 2 || width == 0 || height == 0) return 2;
+      if (std::sscanf(argv[++i], "%ux%u", &width, &height) != 2 || width == 0 || height == 0 || width > 8192 ||
+          height > 8192) {
+        std::fprintf(stderr, "weft-bench-fur: --size expects WxH with sides 1..8192, got '%s'\n", argv[i]);
+        return 2;
+      }
+      size_given = true;
     } else if (a == "--photo" && i + 1 < argc) {
       photo_path = argv[++i];
     } else {
-      std::fprintf(stderr, "usage: weft-bench-fur [--accuracy] [--speed] [--frames K] [--size WxH] [--photo PATH]\n");
+      std::fprintf(stderr, "weft-bench-fur: unknown argument '%s'\n%s", a.c_str(), usage);
       return 2;
     }
   }
-  if (!do_accuracy && !do_speed) do_accuracy = do_speed = true;
+  if (!do_accuracy && !do_speed && !do_unfurred) do_accuracy = do_speed = do_unfurred = true;
   if (photo_path.empty() && fs::exists(shared_data() / "fur" / "cream_long.jpg")) photo_path = shared_data() / "fur" / "cream_long.jpg";
   image::Image8 photo = photo_path.empty() ? synthesize_fur_photo({.width = 512, .height = 512})
                                            : must(image::load_ldr(photo_path), "loading the photo");
@@ -350,8 +501,11 @@ int main(int argc, char** argv) {
               cpu_name().c_str(), std::thread::hardware_concurrency(), g.adapter.info().name.c_str(),
               g.adapter.info().driver.c_str(), g.adapter.info().driver_info.c_str(),
               std::string(gpu::to_string(g.adapter.info().type)).c_str());
+  // This program links the fur feature and registers it, as any application does.
+  must(register_feature(shell_fur_feature()), "registering the fur feature");
   const ShellFurPass pass = must(ShellFurPass::create(g.device), "creating the pass");
   if (do_accuracy) accuracy(g, pass, photo, photo_name);
   if (do_speed) speed(g, pass, photo, photo_name, width, height, frames);
+  if (do_unfurred) unfurred(g, scene_path, object_name, size_given ? width : 0, size_given ? height : 0, frames);
   return 0;
 }

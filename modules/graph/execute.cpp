@@ -262,6 +262,15 @@ Result<FrameStats> CompiledGraph::execute(gpu::Device& device, const ExecuteOpti
 
   auto encoder = device.create_command_encoder(graph.name);
   if (!encoder) return with_context(context, encoder.error());
+  // Serial passes: each pass's commands go in an encoder of their own, submitted and waited for.
+  auto submit_and_wait = [&]() -> Result<void> {
+    auto commands = encoder->finish();
+    if (!commands) return with_context(context, commands.error());
+    if (auto submitted = device.queue().submit(std::move(*commands)); !submitted)
+      return with_context(context, submitted.error());
+    if (auto waited = device.queue().wait_idle(); !waited) return with_context(context, waited.error());
+    return {};
+  };
   const auto positions = std::uint32_t(s.order.size());
   const bool timestamps = options.timestamps && positions > 0 && device.adapter_info().limits.timestamps;
   detail::Realized& real = *s.realized;
@@ -292,6 +301,7 @@ Result<FrameStats> CompiledGraph::execute(gpu::Device& device, const ExecuteOpti
   for (std::uint32_t pos = 0; pos < positions; ++pos) {
     const std::uint32_t p = s.order[pos];
     const detail::PassNode& pass = graph.passes[p];
+    const auto wall_start = clock::now();
     encoder->push_debug_group(pass.name);
     executor.record_barriers(
         std::span(s.barriers).subspan(s.barrier_begin[pos], s.barrier_begin[pos + 1] - s.barrier_begin[pos]));
@@ -307,15 +317,18 @@ Result<FrameStats> CompiledGraph::execute(gpu::Device& device, const ExecuteOpti
       for (std::size_t i = 0; i < executor.errors.size(); ++i) message += (i ? "; " : "") + executor.errors[i];
       return std::unexpected(Error{ErrorKind::Graph, std::move(message)});
     }
+    if (options.serial_passes) {
+      if (auto ok = submit_and_wait(); !ok) return std::unexpected(ok.error());
+      stats.passes.back().wall_ms = detail::elapsed_us(wall_start) / 1000.0;
+      encoder = device.create_command_encoder(graph.name);
+      if (!encoder) return with_context(context, encoder.error());
+      executor.encoder = &*encoder;
+    }
   }
   executor.record_barriers(std::span(s.barriers).subspan(s.barrier_begin[positions],
                                                          s.barrier_begin[positions + 1] - s.barrier_begin[positions]));
-  auto commands = encoder->finish();
-  if (!commands) return with_context(context, commands.error());
   stats.cpu_record_total_us = detail::elapsed_us(frame_start);
-  if (auto submitted = device.queue().submit(std::move(*commands)); !submitted)
-    return with_context(context, submitted.error());
-  if (auto waited = device.queue().wait_idle(); !waited) return with_context(context, waited.error());
+  if (auto ok = submit_and_wait(); !ok) return std::unexpected(ok.error());
 
   if (timestamps) {
     auto times = real.queries->read_timestamps_ns(0, 2 * positions);
@@ -351,11 +364,25 @@ const gpu::Buffer* CompiledGraph::buffer(BufferHandle handle) const {
 
 std::string FrameStats::format_table() const {
   auto ms = [](double v) { return v < 0 ? std::string("—") : weft::format("{:.3f}", v); };
-  std::string out = "| pass | kind | GPU ms | CPU record µs |\n|:-----|:-----|-------:|--------------:|\n";
-  for (const PassStats& p : passes)
-    out += weft::format("| {} | {} | {} | {:.1f} |\n", p.name, to_string(p.kind), ms(p.gpu_ms), p.cpu_record_us);
-  out += weft::format("| **total** ({} passes) | | {} | {:.1f} |\n", passes.size(), ms(gpu_total_ms),
-                     cpu_record_total_us);
+  const bool wall = std::any_of(passes.begin(), passes.end(), [](const PassStats& p) { return p.wall_ms >= 0; });
+  std::string out = wall ? "| pass | kind | GPU ms | wall ms (alone) | CPU record µs |\n|:-----|:-----|-------:|-------:|--------------:|\n"
+                         : "| pass | kind | GPU ms | CPU record µs |\n|:-----|:-----|-------:|--------------:|\n";
+  double wall_total = 0.0;
+  for (const PassStats& p : passes) {
+    if (wall) {
+      wall_total += std::max(p.wall_ms, 0.0);
+      out += weft::format("| {} | {} | {} | {} | {:.1f} |\n", p.name, to_string(p.kind), ms(p.gpu_ms), ms(p.wall_ms),
+                          p.cpu_record_us);
+    } else {
+      out += weft::format("| {} | {} | {} | {:.1f} |\n", p.name, to_string(p.kind), ms(p.gpu_ms), p.cpu_record_us);
+    }
+  }
+  if (wall)
+    out += weft::format("| **total** ({} passes) | | {} | {} | {:.1f} |\n", passes.size(), ms(gpu_total_ms),
+                        ms(wall_total), cpu_record_total_us);
+  else
+    out += weft::format("| **total** ({} passes) | | {} | {:.1f} |\n", passes.size(), ms(gpu_total_ms),
+                        cpu_record_total_us);
   return out;
 }
 

@@ -202,6 +202,12 @@ struct CompileOptions {
 
 struct ExecuteOptions {
   bool timestamps = true;  // per-pass GPU times (when the adapter supports timestamps)
+  // Submit and wait after every pass, timing each on the wall clock (PassStats::wall_ms).
+  // For profiling on CPU adapters: lavapipe takes a timestamp when its rasteriser reaches
+  // it, after the vertex shading, clipping and binning of the pass's draws, so GPU spans
+  // there leave out all of a pass's geometry work. A serial frame costs more than a normal
+  // one (no overlap between passes), so time frames with it off.
+  bool serial_passes = false;
 };
 
 struct PassStats {
@@ -209,6 +215,7 @@ struct PassStats {
   PassKind kind = PassKind::Compute;
   double gpu_ms = -1.0;        // -1 when timestamps are off or unsupported
   double cpu_record_us = 0.0;  // time spent in the pass's execute callback
+  double wall_ms = -1.0;       // ExecuteOptions::serial_passes: record + submit + wait of this pass alone
 };
 
 struct FrameStats {

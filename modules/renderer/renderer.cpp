@@ -242,6 +242,9 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
   feature_objects.clear();
   mesh_table.clear();
   for (const auto& mesh : scene.meshes) mesh_table.push_back(&meshes.at(mesh_content_hash(mesh)));
+  const scene::DirectionalLight* key_light = nullptr;
+  for (const auto& light : scene.lights)
+    if (const auto* d = std::get_if<scene::DirectionalLight>(&light); d && !key_light) key_light = d;
   for (std::uint32_t i = 0; i < scene.objects.size(); ++i) {
     const auto& object = scene.objects[i];
     const auto& material = scene.materials.at(object.material);
@@ -249,7 +252,8 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
     const auto& s = material.standard;
     item.material = {.base_color = s.base_color, .metallic = s.metallic, .roughness = s.roughness, .emissive = s.emissive,
                      .normal_scale = s.normal_scale, .occlusion_strength = s.occlusion_strength};
-    shadow_casters.push_back(item);
+    // A floor under everything shadows nothing and covered most of the shadow map.
+    if (!key_light || !shadows_nothing_visible(scene, i, -key_light->direction)) shadow_casters.push_back(item);
     if (material.type != scene::standard_material) {
       feature_objects[material.type].push_back(i);
       continue;
@@ -485,7 +489,7 @@ Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& o
   auto compiled = built->first->compile({.output_extent = {w, h, 1}, .device = s.device});
   if (!compiled) return std::unexpected(compiled.error().to_error());
   ++(compiled->plan_reused() ? s.stats.graph_plans_reused : s.stats.graph_plans);
-  auto stats = compiled->execute(*s.device, {.timestamps = options.timestamps});
+  auto stats = compiled->execute(*s.device, {.timestamps = options.timestamps, .serial_passes = options.serial_passes});
   if (!stats) return std::unexpected(stats.error());
   auto pixels = s.device->queue().read_texture(*s.output);
   if (!pixels) return std::unexpected(pixels.error());

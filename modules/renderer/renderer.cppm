@@ -29,6 +29,9 @@ struct RenderOptions {
   float exposure = 1.0f;
   bool aces = true;          // ACES tone curve; false: plain clamp (for analytic checks)
   bool timestamps = true;
+  // Submit and wait after every pass and time each alone (ExecuteOptions::serial_passes): the
+  // honest per-pass cost on CPU adapters, whose timestamps leave out vertex work.
+  bool serial_passes = false;
   // Also read back the scene colour before tone mapping into Frame::hdr (linear RGBA float):
   // what stability tests inspect, since NaN and infinity do not survive the 8-bit output.
   bool read_hdr = false;
@@ -74,6 +77,15 @@ class Renderer {
   struct State;
   std::unique_ptr<State> state_;
 };
+
+// True when scene object `index` is flat (every vertex on one plane) and nothing the camera
+// can see lies behind it as seen from the light (`towards_light`): the other objects' boxes
+// are on its lit side (seen from that side, dipping into it by up to 0.1 % of the scene's
+// size counts as resting on it), or, for an opaque (standard) object seen from its lit side,
+// their parts behind it are hidden by it (it must then be a filled rectangle). Such an object
+// shadows nothing visible, so the key light's shadow map leaves it out: a floor under the
+// scene covered most of the map.
+[[nodiscard]] bool shadows_nothing_visible(const scene::Scene& scene, std::uint32_t index, vec3 towards_light);
 
 }  // namespace weft::renderer
 

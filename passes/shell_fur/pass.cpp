@@ -45,19 +45,6 @@ FurPush push_constants(const ShellFurDraw& d) {
                  vec4(s.specular, s.shininess, s.fin_threshold, 0.0f)};
 }
 
-gpu::VertexBufferLayout fin_layout() {
-  using F = gpu::VertexFormat;
-  return {.stride = sizeof(FurFinEdge),
-          .step_mode = gpu::VertexStepMode::Instance,
-          .attributes = {{F::Float32x3, offsetof(FurFinEdge, position_a), 0},
-                         {F::Float32x3, offsetof(FurFinEdge, position_b), 1},
-                         {F::Float32x3, offsetof(FurFinEdge, normal_a), 2},
-                         {F::Float32x3, offsetof(FurFinEdge, normal_b), 3},
-                         {F::Float32x4, offsetof(FurFinEdge, uv_ab), 4},
-                         {F::Float32x3, offsetof(FurFinEdge, face_normal_0), 5},
-                         {F::Float32x3, offsetof(FurFinEdge, face_normal_1), 6}}};
-}
-
 Result<gpu::Texture> upload_texture(gpu::Device& device, std::string label, std::uint32_t w, std::uint32_t h,
                                     gpu::Format format, std::span<const std::uint8_t> texels) {
   auto texture = device.create_texture({.label = std::move(label), .size = {w, h, 1}, .format = format,
@@ -116,7 +103,7 @@ Result<FurLayerTable> upload_band_table(gpu::Device& device, FurBandTable table,
 
 Result<FurFins> upload_fins(gpu::Device& device, std::span<const FurFinEdge> edges, std::string_view label) {
   if (edges.empty()) return fail(ErrorKind::InvalidArgument, "fur fins '{}': the mesh has no edges", label);
-  auto buffer = device.create_buffer_with_data({.label = weft::format("{}.fins", label), .usage = gpu::BufferUsage::Vertex},
+  auto buffer = device.create_buffer_with_data({.label = weft::format("{}.fins", label), .usage = gpu::BufferUsage::Storage},
                                                std::as_bytes(edges));
   if (!buffer) return std::unexpected(buffer.error());
   return FurFins{std::move(*buffer), std::uint32_t(edges.size())};
@@ -125,7 +112,7 @@ Result<FurFins> upload_fins(gpu::Device& device, std::span<const FurFinEdge> edg
 struct ShellFurPass::State {
   gpu::BindGroupLayout bind_layout;
   gpu::PipelineLayout layout;
-  gpu::RenderPipeline shells, fins, naive;
+  gpu::RenderPipeline shells, fins, naive, skin_depth;
   gpu::Sampler mirror, repeat, shadow;
 };
 
@@ -138,7 +125,8 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
   auto shell_fs = module("shell_fur/shell.frag", gpu::ShaderStage::Fragment, shaders::shell_frag());
   auto fin_fs = module("shell_fur/fin.frag", gpu::ShaderStage::Fragment, shaders::fin_frag());
   auto naive_fs = module("shell_fur/shell_naive.frag", gpu::ShaderStage::Fragment, shaders::shell_naive_frag());
-  for (auto* m : {&shell_vs, &fin_vs, &shell_fs, &fin_fs, &naive_fs})
+  auto skin_fs = module("shell_fur/skin_depth.frag", gpu::ShaderStage::Fragment, shaders::skin_depth_frag());
+  for (auto* m : {&shell_vs, &fin_vs, &shell_fs, &fin_fs, &naive_fs, &skin_fs})
     if (!*m) return std::unexpected(m->error());
   using gpu::BindingType;
   using gpu::ShaderStage;
@@ -148,7 +136,8 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
                    {1, BindingType::TextureSampler, ShaderStage::Fragment},
                    {2, BindingType::TextureSampler, ShaderStage::Fragment},
                    {3, BindingType::ReadOnlyStorageBuffer, ShaderStage::Fragment},
-                   {4, BindingType::TextureSampler, ShaderStage::Fragment}}});
+                   {4, BindingType::TextureSampler, ShaderStage::Fragment},
+                   {5, BindingType::ReadOnlyStorageBuffer, ShaderStage::Vertex}}});  // fin edges
   if (!bind_layout) return std::unexpected(bind_layout.error());
   auto layout = device.create_pipeline_layout(
       {.label = "shell_fur", .bind_group_layouts = {&*bind_layout}, .push_constant_size = sizeof(FurPush)});
@@ -160,10 +149,30 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
   };
   auto shells = pipeline("shell_fur.shells", *shell_vs, *shell_fs, frame::vertex_layout());
   if (!shells) return std::unexpected(shells.error());
-  auto fins = pipeline("shell_fur.fins", *fin_vs, *fin_fs, fin_layout());
+  // The fins read their edges from a storage buffer: no vertex buffers.
+  auto fins = device.create_render_pipeline({.label = "shell_fur.fins",
+                                             .layout = &*layout,
+                                             .vertex = &*fin_vs,
+                                             .fragment = &*fin_fs,
+                                             .cull_mode = gpu::CullMode::None,
+                                             .color_targets = {{color_format}},
+                                             .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
   if (!fins) return std::unexpected(fins.error());
   auto naive = pipeline("shell_fur.naive", *shell_vs, *naive_fs, frame::vertex_layout());
   if (!naive) return std::unexpected(naive.error());
+  // The skin's depth pre-pass: the skin (instance N of shell.vert) pushed back by a few depth
+  // steps, colour untouched (adding zero). Any bias keeps the image: it only lets through
+  // fragments that the skin, drawn again at its exact depth, hides anyway.
+  auto skin_depth = device.create_render_pipeline(
+      {.label = "shell_fur.skin_depth",
+       .layout = &*layout,
+       .vertex = &*shell_vs,
+       .fragment = &*skin_fs,
+       .vertex_buffers = {frame::vertex_layout()},
+       .cull_mode = gpu::CullMode::None,
+       .color_targets = {{color_format, gpu::BlendMode::Additive}},
+       .depth_stencil = gpu::DepthStencilState{.format = depth_format, .depth_bias_constant = 4.0f, .depth_bias_slope = 1.0f}});
+  if (!skin_depth) return std::unexpected(skin_depth.error());
   auto mirror = device.create_sampler({.label = "fur.mirror", .mipmap_filter = gpu::FilterMode::Nearest,
                                        .address_mode = gpu::AddressMode::MirrorRepeat, .max_lod = 0.0f});
   auto repeat = device.create_sampler({.label = "fur.repeat", .mipmap_filter = gpu::FilterMode::Nearest,
@@ -173,7 +182,7 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
     if (!*s) return std::unexpected(s->error());
   ShellFurPass pass;
   pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*layout), std::move(*shells),
-                                              std::move(*fins), std::move(*naive), std::move(*mirror),
+                                              std::move(*fins), std::move(*naive), std::move(*skin_depth), std::move(*mirror),
                                               std::move(*repeat), std::move(*shadow)});
   return pass;
 }
@@ -201,6 +210,7 @@ Result<void> ShellFurPass::add(RenderGraph& graph, std::span<const ShellFurDraw>
     if (d.method == FurMethod::PerLayerTextures)
       for (const auto& t : d.layers->textures) desc.textures.push_back({t.label(), &t});
     desc.buffers.push_back({d.layers->bands.label(), &d.layers->bands});
+    if (d.fins) desc.buffers.push_back({d.fins->edges.label(), &d.fins->edges});
   }
   auto state = state_;
   return frame::add_scene_color_pass(graph, std::move(desc), [state, draws](frame::ScenePassDraw& scene) {
@@ -212,7 +222,9 @@ Result<void> ShellFurPass::add(RenderGraph& graph, std::span<const ShellFurDraw>
            .layout = &state->bind_layout,
            .entries = {gpu::bind(0, scene.uniforms), gpu::bind(1, photo.view(), &sampler),
                        gpu::bind(2, draw.photo->orientation.view(), &sampler), gpu::bind(3, draw.layers->bands),
-                       gpu::bind(4, scene.shadow_map, &state->shadow)}});
+                       gpu::bind(4, scene.shadow_map, &state->shadow),
+                       // the fins' edges; any storage buffer where the draw has none (only fin.vert reads it)
+                       gpu::bind(5, draw.fins ? draw.fins->edges : draw.layers->bands)}});
       if (!group) {
         ctx.encoder().report_error(group.error());
         return nullptr;
@@ -223,11 +235,20 @@ Result<void> ShellFurPass::add(RenderGraph& graph, std::span<const ShellFurDraw>
     for (const ShellFurDraw& draw : draws) {
       const std::uint32_t layers = draw.layers->table.layers;
       const FurPush push = push_constants(draw);
-      const gpu::BindGroup* group = nullptr;  // over the photo: shells and fins
+      const gpu::BindGroup* group = group_for(draw, draw.photo->photo);  // over the photo: shells and fins
+      if (!group) break;
       if (draw.method == FurMethod::SinglePhoto) {
+        // The skin's depth first, pushed back a little: shell fragments behind the near side's
+        // skin (the far side's shells, about half of all) then fail the depth test before their
+        // shader runs. The skin's band keeps every texel, so it hides them anyway once the
+        // shells draw it again at its exact depth: no pixel changes (docs/fur.md, Speed).
+        pass.set_pipeline(state->skin_depth);
+        pass.set_bind_group(0, *group);
+        pass.push(push);
+        pass.set_vertex_buffer(0, draw.mesh->vertices);
+        pass.set_index_buffer(draw.mesh->indices);
+        pass.draw_indexed(draw.mesh->index_count, 1, 0, 0, layers);  // instance N: the skin
         // Tips first: with h_b = 0 the tips win the depth ties (the photo on the skin).
-        group = group_for(draw, draw.photo->photo);
-        if (!group) break;
         pass.set_pipeline(state->shells);
         pass.set_bind_group(0, *group);
         pass.push(push);
@@ -247,13 +268,10 @@ Result<void> ShellFurPass::add(RenderGraph& graph, std::span<const ShellFurDraw>
         }
       }
       if (draw.fins && draw.fins->count > 0 && draw.shading.thickness > 0.0f) {
-        if (!group) group = group_for(draw, draw.photo->photo);
-        if (!group) break;
         pass.set_pipeline(state->fins);
         pass.set_bind_group(0, *group);
         pass.push(push);
-        pass.set_vertex_buffer(0, draw.fins->edges);
-        pass.draw(6, draw.fins->count);
+        pass.draw(6 * draw.fins->count);
       }
     }
   });

@@ -9,6 +9,9 @@ layout(location = 1) out vec3 world_normal;
 layout(location = 2) out vec4 world_tangent;
 layout(location = 3) out vec2 uv;
 layout(location = 4) flat out int layer;
+// The skin's depth pre-pass and the shells draw the skin with this shader in two pipelines;
+// their depths must agree.
+invariant gl_Position;
 void main() {
   layer = gl_InstanceIndex;
   float layers = draw.uv_layers.z;

@@ -238,7 +238,7 @@ struct FurLayerTable {
                                                       const FurPhoto* photo_for_textures = nullptr);
 
 struct FurFins {
-  gpu::Buffer edges;  // FurFinEdge[count], per-instance vertex data
+  gpu::Buffer edges;  // FurFinEdge[count], a storage buffer the fin vertex shader reads
   std::uint32_t count = 0;
 };
 [[nodiscard]] Result<FurFins> upload_fins(gpu::Device& device, std::span<const FurFinEdge> edges, std::string_view label);

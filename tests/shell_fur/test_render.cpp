@@ -21,7 +21,7 @@ import weft.frame;
 import weft.image;
 import weft.scene;
 import weft.pass.shell_fur;
-import weft.test.fur_frame;
+import weft.example.fur_frame;
 import weft.test.gpu;
 
 using namespace weft;

@@ -11,7 +11,7 @@ module;
 #include <vector>
 #include <glm/glm.hpp>
 #include <glm/gtc/packing.hpp>
-module weft.test.fur_frame;
+module weft.example.fur_frame;
 import weft.pass.shell_fur;
 import weft.core;
 import weft.gpu;

@@ -1,12 +1,13 @@
-// weft.test.fur_frame — ShellFurPass in a frame of its own (clear -> fur -> readback) with
-// any camera (orthographic too), for the fur tests and the fur benchmark: a harness, so it
-// lives with the tests, not in the feature's exported interface.
+// weft.example.fur_frame — ShellFurPass in a frame of its own (clear -> fur -> readback) with
+// any camera (orthographic too), for the fur tests, the fur benchmark and studies: a harness
+// next to the example, not in the feature's exported interface, and built without the tests
+// (weft-bench-fur needs it).
 module;
 #include <cstdint>
 #include <expected>
 #include <memory>
 #include <span>
-export module weft.test.fur_frame;
+export module weft.example.fur_frame;
 import weft.core;
 import weft.gpu;
 import weft.graph;
