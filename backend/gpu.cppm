@@ -112,6 +112,15 @@ struct Limits {
   std::uint64_t min_storage_buffer_offset_alignment = 0;
   double timestamp_period_ns = 0.0;
   bool timestamps = false;
+  std::uint32_t max_compute_shared_memory = 0;  // bytes of workgroup-shared memory
+};
+
+// Optional capabilities a pass may choose a path by (detected, not enabled: a pass that uses
+// one asks the device for it).
+struct AdapterFeatures {
+  // VK_KHR_cooperative_matrix with its cooperativeMatrix feature: subgroup-wide matrix
+  // multiply-add (tensor cores and the like). Lavapipe (Mesa 25) reports it too.
+  bool cooperative_matrix = false;
 };
 
 struct AdapterInfo {
@@ -122,6 +131,7 @@ struct AdapterInfo {
   std::uint32_t api_version = 0;  // VK_MAKE_API_VERSION packing
   std::uint64_t device_local_bytes = 0;
   Limits limits;
+  AdapterFeatures features;
   [[nodiscard]] std::string api_version_string() const;
 };
 

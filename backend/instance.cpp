@@ -83,6 +83,34 @@ std::string lower(std::string s) {
   return s;
 }
 
+// VK_KHR_cooperative_matrix's feature struct (Vulkan 1.3.255): this machine's headers are
+// 1.3.239, so its sType and layout are spelled out here, from the registry.
+constexpr auto kCooperativeMatrixFeaturesType = VkStructureType(1000506000);
+struct CooperativeMatrixFeatures {
+  VkStructureType sType = kCooperativeMatrixFeaturesType;
+  void* pNext = nullptr;
+  VkBool32 cooperativeMatrix = VK_FALSE;
+  VkBool32 cooperativeMatrixRobustBufferAccess = VK_FALSE;
+};
+
+AdapterFeatures detect_features(VkPhysicalDevice pd) {
+  AdapterFeatures f;
+  std::uint32_t count = 0;
+  vkEnumerateDeviceExtensionProperties(pd, nullptr, &count, nullptr);
+  std::vector<VkExtensionProperties> exts(count);
+  vkEnumerateDeviceExtensionProperties(pd, nullptr, &count, exts.data());
+  const bool has_extension = std::any_of(exts.begin(), exts.end(), [](const VkExtensionProperties& e) {
+    return std::strcmp(e.extensionName, "VK_KHR_cooperative_matrix") == 0;
+  });
+  if (has_extension) {
+    CooperativeMatrixFeatures coop;
+    VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, &coop};
+    vkGetPhysicalDeviceFeatures2(pd, &features);
+    f.cooperative_matrix = coop.cooperativeMatrix == VK_TRUE;
+  }
+  return f;
+}
+
 AdapterInfo describe(VkPhysicalDevice pd) {
   VkPhysicalDeviceDriverProperties driver{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
   VkPhysicalDeviceProperties2 props{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, &driver};
@@ -115,6 +143,8 @@ AdapterInfo describe(VkPhysicalDevice pd) {
   l.min_storage_buffer_offset_alignment = p.limits.minStorageBufferOffsetAlignment;
   l.timestamp_period_ns = p.limits.timestampPeriod;
   l.timestamps = p.limits.timestampComputeAndGraphics;
+  l.max_compute_shared_memory = p.limits.maxComputeSharedMemorySize;
+  info.features = detect_features(pd);
   return info;
 }
 

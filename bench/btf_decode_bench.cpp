@@ -1,15 +1,19 @@
 // weft-bench-btf-decode: how fast the NeuralBTFMaterial's decoder runs on this device.
+//   peak    the FMA limit, measured: a compute shader of pure FMA chains on this device
+//           (fma_peak.comp) and plain C++ AVX2 / AVX-512 FMA loops on every CPU thread
+//           (fma_peak_cpu.cpp); the kernel and frame tables give % of the device's
 //   kernel  the decode kernel (btf_decode.comp, the material's GLSL) over 512 x 512 queries:
 //           texels per second and GFLOP/s (2 FLOP per multiply-add, 24,383 of them per decode
 //           for the paper's 12 -> 106 -> 106 -> 106 -> 3 decoder) against the CPU's peak
 //           estimate, plain and clustered models; the scalar CPU decode (weft::btf::decode,
 //           one thread) is the baseline measured in the same run
-//   frame   a 512 x 512 frame filled by a neural_btf quad through weft::renderer: the pass's
-//           GPU time per quality knob (decodes per pixel: key light, + ambient, bilinear)
+//   frame   a 512 x 512 frame filled by a neural_btf quad through weft::renderer: the passes'
+//           GPU time per quality knob (decodes per pixel: key light, + ambient, bilinear), the
+//           batched path and the fragment path alternating in one run
 //   storage the .wbtf sizes of the paper's models in fp32 and compact storage, and what fp16
 //           weights and latents change in the decoded values
 //
-//   build/bin/weft-bench-btf-decode [kernel] [frame] [storage] [--runs N] [--size N] [--ghz F]
+//   build/bin/weft-bench-btf-decode [peak] [kernel] [frame] [storage] [--runs N] [--size N] [--ghz F]
 //
 // Times are medians over --runs runs (default 5) of steady_clock around submit + wait.
 #include <algorithm>
@@ -28,6 +32,8 @@
 #include <thread>
 #include <vector>
 #include <glm/glm.hpp>
+#include "fma_peak_cpu.h"
+#include "weft-bench-btf-decode_shaders.h"
 import weft.core;
 import weft.feature;
 import weft.gpu;
@@ -84,7 +90,69 @@ std::vector<passes::DecodeQuery> random_queries(const btf::NeuralBtf& m, std::si
   return q;
 }
 
-void kernel_table(Session& s, const Options& o, double peak_gflops) {
+// The device's FMA throughput (fma_peak.comp): GFLOP/s, median of o.runs; 0 on failure.
+double device_fma_peak(Session& s, const Options& o) {
+  auto cs = s.device.create_shader_module(
+      {.label = "fma_peak.comp", .stage = gpu::ShaderStage::Compute, .spirv = shaders::fma_peak_comp()});
+  auto layout = s.device.create_bind_group_layout(
+      {.label = "fma-peak", .entries = {{0, gpu::BindingType::StorageBuffer, gpu::ShaderStage::Compute}}});
+  if (!cs || !layout) return 0.0;
+  auto pipeline_layout =
+      s.device.create_pipeline_layout({.label = "fma-peak", .bind_group_layouts = {&*layout}, .push_constant_size = 12});
+  if (!pipeline_layout) return 0.0;
+  auto pipeline = s.device.create_compute_pipeline({.label = "fma-peak", .layout = &*pipeline_layout, .module = &*cs});
+  const std::uint32_t groups = 1024, invocations = groups * 64, iterations = 4096;
+  auto out = s.device.create_buffer({.label = "fma-sums", .size = invocations * 4, .usage = gpu::BufferUsage::Storage});
+  if (!pipeline || !out) return 0.0;
+  auto group = s.device.create_bind_group({.label = "fma-peak", .layout = &*layout, .entries = {gpu::bind(0, *out)}});
+  if (!group) return 0.0;
+  struct Push {
+    float b, c;
+    std::uint32_t iterations;
+  };
+  std::vector<double> gflops;
+  for (int r = 0; r <= o.runs; ++r) {
+    auto enc = s.device.create_command_encoder("fma-peak");
+    if (!enc) return 0.0;
+    {
+      auto pass = enc->begin_compute_pass("fma-peak");
+      pass.set_pipeline(*pipeline);
+      pass.set_bind_group(0, *group);
+      pass.push(Push{0.999f, 0.001f, iterations});
+      pass.dispatch(groups);
+      pass.end();
+    }
+    auto cmd = enc->finish();
+    if (!cmd) return 0.0;
+    const auto start = Clock::now();
+    if (!s.device.queue().submit(std::move(*cmd)) || !s.device.queue().wait_idle()) return 0.0;
+    const double t = std::chrono::duration<double>(Clock::now() - start).count();
+    if (r > 0) gflops.push_back(double(invocations) * iterations * 12 * 2.0 / t / 1e9);  // run 0: warm-up
+  }
+  return median(gflops);
+}
+
+double peak_table(Session* s, const Options& o, double estimate) {
+  std::printf("\n## FMA peak, measured (%d runs, medians)\n\n| what | GFLOP/s | of the clock estimate (%.0f) |\n|:--|--:|--:|\n",
+              o.runs, estimate);
+  const unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+  const bench::CpuFmaPeak cpu = bench::measure_cpu_fma_peak(threads, o.runs);
+  if (cpu.has_avx2)
+    std::printf("| CPU, C++ AVX2 FMA loop, %u threads | %.1f | %.0f %% |\n", threads, median(cpu.avx2_gflops),
+                100.0 * median(cpu.avx2_gflops) / estimate);
+  if (cpu.has_avx512)
+    std::printf("| CPU, C++ AVX-512 FMA loop, %u threads | %.1f | %.0f %% |\n", threads, median(cpu.avx512_gflops),
+                100.0 * median(cpu.avx512_gflops) / estimate);
+  double device = 0.0;
+  if (s) {
+    device = device_fma_peak(*s, o);
+    std::printf("| device compute shader, 12 FMA chains per invocation (fma_peak.comp) | %.1f | %.0f %% |\n", device,
+                100.0 * device / estimate);
+  }
+  return device;
+}
+
+void kernel_table(Session& s, const Options& o, double peak_gflops, double device_peak) {
   auto kernel = passes::BtfDecodeKernel::create(s.device);
   if (!kernel) {
     std::printf("kernel: %s\n", kernel.error().what().c_str());
@@ -92,22 +160,28 @@ void kernel_table(Session& s, const Options& o, double peak_gflops) {
   }
   const std::size_t count = std::size_t(o.size) * o.size;
   std::printf("\n## Decode kernel, %u x %u queries (random texels and hemisphere directions)\n\n", o.size, o.size);
-  std::printf("| model | ms (median of %d) | Mtexels/s | GFLOP/s | %% of CPU peak | CPU scalar decode, 1 thread: Mtexels/s | GPU / CPU-1-thread |\n",
+  std::printf("| model | ms (median of %d) | Mtexels/s | GFLOP/s | %% of measured device FMA peak | %% of CPU clock estimate | CPU scalar decode, 1 thread: Mtexels/s | GPU / CPU-1-thread |\n",
               o.runs);
-  std::printf("|:--|--:|--:|--:|--:|--:|--:|\n");
+  std::printf("|:--|--:|--:|--:|--:|--:|--:|--:|\n");
   struct Variant {
     const char* name;
     btf::RandomModelOptions options;
-    bool unrolled;
+    passes::DecodeVariant variant;
   };
+  using passes::DecodeVariant;
   const Variant variants[] = {
-      {"plain, 100 x 100 latents, generic shader", {.width = 100, .height = 100}, false},
-      {"plain, 100 x 100 latents, unrolled shader", {.width = 100, .height = 100}, true},
-      {"clustered k = 500 + scales, unrolled shader", {.width = 100, .height = 100, .clusters = 500, .scales = true}, true},
+      {"plain, 100 x 100 latents, generic shader", {.width = 100, .height = 100}, DecodeVariant::Generic},
+      {"plain, 100 x 100 latents, unrolled shader", {.width = 100, .height = 100}, DecodeVariant::Unrolled},
+      {"plain, 100 x 100 latents, tiled (batched) shader", {.width = 100, .height = 100}, DecodeVariant::Tiled},
+      {"clustered k = 500 + scales, unrolled shader", {.width = 100, .height = 100, .clusters = 500, .scales = true},
+       DecodeVariant::Unrolled},
+      {"clustered k = 500 + scales, tiled (batched) shader",
+       {.width = 100, .height = 100, .clusters = 500, .scales = true},
+       DecodeVariant::Tiled},
   };
   for (const auto& v : variants) {
     const btf::NeuralBtf model = btf::random_model(v.options);
-    auto buffer = passes::upload_model(s.device, model, "bench-model", v.unrolled);
+    auto buffer = passes::upload_model(s.device, model, "bench-model", true);
     const auto queries = random_queries(model, count, 1);
     auto in = s.device.create_buffer_with_data({.label = "queries", .size = count * sizeof(passes::DecodeQuery),
                                                 .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
@@ -118,10 +192,10 @@ void kernel_table(Session& s, const Options& o, double peak_gflops) {
       std::printf("| %s | upload failed | | | | | |\n", v.name);
       continue;
     }
-    (void)kernel->run(s.device, *buffer, *in, *out, std::uint32_t(count));  // warm-up (pipeline compile)
+    (void)kernel->run(s.device, *buffer, *in, *out, std::uint32_t(count), v.variant);  // warm-up (pipeline compile)
     std::vector<double> seconds;
     for (int r = 0; r < o.runs; ++r) {
-      auto t = kernel->run(s.device, *buffer, *in, *out, std::uint32_t(count));
+      auto t = kernel->run(s.device, *buffer, *in, *out, std::uint32_t(count), v.variant);
       if (!t) {
         std::printf("| %s | %s | | | | | |\n", v.name, t.error().what().c_str());
         break;
@@ -144,8 +218,9 @@ void kernel_table(Session& s, const Options& o, double peak_gflops) {
       cpu_seconds.push_back(std::chrono::duration<double>(Clock::now() - start).count());
     }
     const double cpu_rate = double(cpu_count) / median(cpu_seconds);
-    std::printf("| %s | %.1f | %.3f | %.2f | %.1f %% | %.3f | %.1fx |\n", v.name, t * 1e3, rate / 1e6, gflops,
-                peak_gflops > 0 ? 100.0 * gflops / peak_gflops : 0.0, cpu_rate / 1e6, rate / cpu_rate);
+    std::printf("| %s | %.1f | %.3f | %.2f | %.1f %% | %.1f %% | %.3f | %.1fx |\n", v.name, t * 1e3, rate / 1e6, gflops,
+                device_peak > 0 ? 100.0 * gflops / device_peak : 0.0, peak_gflops > 0 ? 100.0 * gflops / peak_gflops : 0.0,
+                cpu_rate / 1e6, rate / cpu_rate);
   }
 }
 
@@ -160,7 +235,7 @@ std::string quad_scene(const std::string& model_path, const std::string& knobs, 
                       size, model_path, knobs);
 }
 
-void frame_table(Session& s, const Options& o, double peak_gflops) {
+void frame_table(Session& s, const Options& o, double peak_gflops, double device_peak) {
   const auto dir = std::filesystem::temp_directory_path() / "weft-bench-btf-decode";
   std::filesystem::create_directories(dir);
   const auto path = dir / "paper.wbtf";
@@ -172,9 +247,10 @@ void frame_table(Session& s, const Options& o, double peak_gflops) {
   auto r = renderer::Renderer::create(s.device);
   if (!r) return;
   std::printf("\n## A %u x %u frame covered by a neural_btf quad (clustered k = 500 model)\n\n", o.size, o.size);
-  std::printf("| knobs | decodes / pixel | neural_btf pass GPU ms (median of %d) | Mpixels/s | GFLOP/s | %% of CPU peak | frame ms |\n",
-              o.runs);
-  std::printf("|:--|--:|--:|--:|--:|--:|--:|\n");
+  std::printf("The neural_btf passes' GPU time (batched: neural_btf geometry + neural_btf_decode + neural_btf_resolve; "
+              "fragment: neural_btf_fragment), medians of %d runs, the two decoders alternating.\n\n", o.runs);
+  std::printf("| knobs | decodes / pixel | decoder | passes GPU ms | Mpixels/s | GFLOP/s | %% of device FMA peak | %% of CPU clock estimate | frame ms | fragment / batched |\n");
+  std::printf("|:--|--:|:--|--:|--:|--:|--:|--:|--:|--:|\n");
   struct Knobs {
     const char* name;
     const char* json;
@@ -186,33 +262,46 @@ void frame_table(Session& s, const Options& o, double peak_gflops) {
       {"+ ambient decode (quality medium)", R"(, "ambient": true, "filter": "nearest", "shadow": true)", 2},
       {"+ bilinear texels (quality high)", R"(, "ambient": true, "filter": "bilinear", "shadow": true)", 8},
   };
+  const char* decoders[] = {"batched", "fragment"};
   for (const auto& k : rows) {
-    auto desc = scene::parse_scene(quad_scene(path.string(), k.json, o.size), dir);
-    if (!desc) {
-      std::printf("| %s | %s |\n", k.name, desc.error().message.c_str());
-      continue;
-    }
-    auto sc = scene::load_scene(*desc);
-    if (!sc) continue;
-    std::vector<double> pass_ms, frame_ms;
-    for (int run = 0; run <= o.runs; ++run) {
-      auto frame = r->render(*sc, {.quality = Quality::Medium});
-      if (!frame) {
-        std::printf("| %s | %s |\n", k.name, frame.error().message.c_str());
-        break;
+    std::optional<scene::Scene> scenes[2];
+    for (int d = 0; d < 2; ++d) {
+      const std::string knobs = weft::format(R"({}, "decoder": "{}")", k.json, decoders[d]);
+      auto desc = scene::parse_scene(quad_scene(path.string(), knobs, o.size), dir);
+      if (!desc) {
+        std::printf("| %s | %s |\n", k.name, desc.error().message.c_str());
+        return;
       }
-      if (run == 0) continue;  // warm-up: model upload, pipelines
-      for (const auto& p : frame->stats.passes)
-        if (p.name == "neural_btf") pass_ms.push_back(p.gpu_ms);
-      frame_ms.push_back(frame->stats.cpu_frame_ms);
+      auto sc = scene::load_scene(*desc);
+      if (!sc) return;
+      scenes[d] = std::move(*sc);
     }
-    const double ms = median(pass_ms);
-    // Pixels the quad covers: all of them (the quad is larger than the view).
-    const double pixels = double(o.size) * o.size;
-    const double rate = pixels / (ms / 1e3);
-    const double gflops = rate * k.decodes * 2.0 * double(multiply_adds(model)) / 1e9;
-    std::printf("| %s | %d | %.1f | %.3f | %.2f | %.1f %% | %.1f |\n", k.name, k.decodes, ms, rate / 1e6, gflops,
-                peak_gflops > 0 ? 100.0 * gflops / peak_gflops : 0.0, median(frame_ms));
+    std::vector<double> pass_ms[2], frame_ms[2];
+    for (int run = 0; run <= o.runs; ++run)
+      for (int d = 0; d < 2; ++d) {
+        auto frame = r->render(*scenes[d], {.quality = Quality::Medium});
+        if (!frame) {
+          std::printf("| %s | %s |\n", k.name, frame.error().message.c_str());
+          return;
+        }
+        if (run == 0) continue;  // warm-up: model upload, pipelines
+        double ms = 0.0;
+        for (const auto& p : frame->stats.passes)
+          if (p.name.starts_with("neural_btf")) ms += p.gpu_ms;
+        pass_ms[d].push_back(ms);
+        frame_ms[d].push_back(frame->stats.cpu_frame_ms);
+      }
+    for (int d = 0; d < 2; ++d) {
+      const double ms = median(pass_ms[d]);
+      // Pixels the quad covers: all of them (the quad is larger than the view).
+      const double pixels = double(o.size) * o.size;
+      const double rate = pixels / (ms / 1e3);
+      const double gflops = rate * k.decodes * 2.0 * double(multiply_adds(model)) / 1e9;
+      std::printf("| %s | %d | %s | %.1f | %.3f | %.2f | %.1f %% | %.1f %% | %.1f | %s |\n", k.name, k.decodes, decoders[d],
+                  ms, rate / 1e6, gflops, device_peak > 0 ? 100.0 * gflops / device_peak : 0.0,
+                  peak_gflops > 0 ? 100.0 * gflops / peak_gflops : 0.0, median(frame_ms[d]),
+                  d == 1 ? weft::format("{:.1f}x", median(pass_ms[1]) / median(pass_ms[0])).c_str() : "");
+    }
   }
 }
 
@@ -267,7 +356,13 @@ int main(int argc, char** argv) {
     else if (a == "--size" && i + 1 < argc) o.size = std::uint32_t(std::max(8, std::atoi(argv[++i])));
     else if (a == "--ghz" && i + 1 < argc) o.ghz = std::atof(argv[++i]);
     else if (a == "-h" || a == "--help") {
-      std::printf("weft-bench-btf-decode [kernel] [frame] [storage] [--runs N] [--size N] [--ghz F]\n");
+      std::printf(
+          "weft-bench-btf-decode [peak] [kernel] [frame] [storage] [--runs N] [--size N] [--ghz F]\n"
+          "  peak     FMA throughput measured: a compute shader of FMA chains on the device, C++ AVX2/AVX-512 loops\n"
+          "  kernel   the decode kernel's shaders (generic, unrolled, tiled) over --size^2 random queries\n"
+          "  frame    a --size^2 frame of a neural_btf quad: batched and fragment decoders alternating, per knob\n"
+          "  storage  .wbtf sizes and what fp16 storage changes in the decoded values\n"
+          "  (no section: all of them; medians of --runs runs; --ghz overrides the clock of the estimate)\n");
       return 0;
     } else if (a.starts_with("-")) {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
@@ -283,15 +378,18 @@ int main(int argc, char** argv) {
               "FLOP/cycle (AVX2, 2 FMA pipes) = %.0f GFLOP/s.\n",
               threads, ghz, threads, ghz, kFlopPerCycle, peak);
   if (o.wants("storage")) storage_table();
-  if (o.wants("kernel") || o.wants("frame")) {
+  if (o.wants("kernel") || o.wants("frame") || o.wants("peak")) {
     auto session = bench::open_session("weft-bench-btf-decode");
     if (!session) {
       std::printf("\n(no Vulkan device: kernel and frame sections skipped)\n");
+      if (o.wants("peak")) peak_table(nullptr, o, peak);
       return 0;
     }
     std::printf("\nDevice: %s (%s).\n", session->adapter.info().name.c_str(), session->adapter.info().driver.c_str());
-    if (o.wants("kernel")) kernel_table(*session, o, peak);
-    if (o.wants("frame")) frame_table(*session, o, peak);
+    // The kernel and frame tables' "% of device FMA peak" is of this run's measurement.
+    const double device_peak = peak_table(&*session, o, peak);
+    if (o.wants("kernel")) kernel_table(*session, o, peak, device_peak);
+    if (o.wants("frame")) frame_table(*session, o, peak, device_peak);
   }
   return 0;
 }

@@ -70,7 +70,9 @@ class NeuralBtfFeature final : public FeaturePass {
     return {};
   }
 
-  Result<void> add_passes(RenderGraph& graph, const FeatureFrame&) override { return pass_.add(graph, draws_, frame_materials_); }
+  Result<void> add_passes(RenderGraph& graph, const FeatureFrame& frame) override {
+    return pass_.add(graph, draws_, frame_materials_, frame.width, frame.height);
+  }
 
   [[nodiscard]] std::vector<std::string> warnings() const override { return warnings_; }
 
@@ -201,11 +203,11 @@ const FeatureDescriptor& neural_btf_feature() {
     FeatureDescriptor d;
     d.name = "neural_btf";
     d.aliases = {"btf"};
-    d.summary = "measured fabrics: a neural BTF decoded per pixel in the fragment shader";
+    d.summary = "measured fabrics: a neural BTF decoded per visible pixel as batched matrix products";
     d.doc = "docs/neural-btf.md";
     d.check_material = &check_material;
     d.create = &create_feature;
-    d.passes = {"neural_btf"};
+    d.passes = {"neural_btf", "neural_btf_decode", "neural_btf_resolve", "neural_btf_fragment"};
     d.knobs = {
         choice_knob("filter", {"nearest", "bilinear"}, "texels decoded per light: 1, or 4 blended"),
         boolean_knob("ambient", "one more decode (ω_i = n) times the environment's SH irradiance"),

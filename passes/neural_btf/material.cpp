@@ -58,6 +58,8 @@ std::string_view to_string(BtfDebugView d) {
   return "?";
 }
 
+std::string_view to_string(BtfDecoder d) { return d == BtfDecoder::Batched ? "batched" : "fragment"; }
+
 NeuralBtfQualityPreset neural_btf_quality_preset(Quality quality) {
   return {.ambient = quality != Quality::Low,
           .filter = quality == Quality::High || quality == Quality::Reference ? TexelFilter::Bilinear : TexelFilter::Nearest};
@@ -105,6 +107,8 @@ Result<NeuralBtfParams> parse_neural_btf_material(const scene::Material& materia
       const std::string debug = r.string("debug_view", "none", {"none", "texel", "uv", "frame"});
       for (BtfDebugView d : {BtfDebugView::None, BtfDebugView::Texel, BtfDebugView::Uv, BtfDebugView::Frame})
         if (to_string(d) == debug) m.debug_view = d;
+      m.decoder = r.string("decoder", "batched", {"batched", "fragment"}) == "fragment" ? BtfDecoder::Fragment
+                                                                                      : BtfDecoder::Batched;
       r.finish();
     }
     if (!errors.empty()) return std::unexpected(errors.to_error(weft::format("neural_btf material '{}'", material.name)));

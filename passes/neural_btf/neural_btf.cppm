@@ -8,12 +8,15 @@
 // decode and the benchmark times, and the feature descriptor (neural_btf_feature).
 // docs/neural-btf.md, "The material and its shader", has the choices and the measurements.
 //
-// Why the fragment shader and not a compute pass: the decoder needs only what the rasteriser
-// already interpolates (UV, normal, tangent, position), so a fragment shader decodes each
-// covered pixel once with no G-buffer; a compute pass would need one (UV + frame per pixel)
-// that weft's forward renderer does not have. The cost is overdraw: hidden fragments of the
-// same object decode too (the depth test runs before the shader for this pipeline, so only
-// fragments drawn before their occluder pay).
+// Two paths decode the same model with the same inputs (material field "decoder"):
+//  - batched (the default): the geometry pass writes each visible pixel's decode inputs into a
+//    G-buffer, a compute pass decodes them per 16 x 16 screen tile as batched matrix products
+//    (btf_decode_tiled.glsl: weights at uniform addresses reused across a batch of 64 rows,
+//    blocks of 8 outputs per row in registers) and a resolve writes the radiance into the scene
+//    colour. No overdraw is decoded; the showcase's cushion costs 4 - 6x less frame time
+//    than through the fragment path on lavapipe.
+//  - fragment: the decoder in the fragment shader (overdraw decodes too). Debug views use it.
+// docs/neural-btf.md, "The batched decode", has the measurements.
 module;
 #include <cstddef>
 #include <cstdint>
@@ -40,9 +43,11 @@ export namespace weft::btf {
 enum class BtfMode : std::uint8_t { Neural, Reference };
 enum class TexelFilter : std::uint8_t { Nearest, Bilinear };
 enum class BtfDebugView : std::uint8_t { None, Texel, Uv, Frame };
+enum class BtfDecoder : std::uint8_t { Batched, Fragment };
 std::string_view to_string(BtfMode m);
 std::string_view to_string(TexelFilter f);
 std::string_view to_string(BtfDebugView d);
+std::string_view to_string(BtfDecoder d);
 
 // A "neural_btf" material's fields (docs/neural-btf.md lists them with their JSON names).
 struct NeuralBtfParams {
@@ -66,6 +71,9 @@ struct NeuralBtfParams {
   TexelFilter filter = TexelFilter::Nearest;  // bilinear: 4 decodes per light, blended
   bool shadow = true;           // the key light's shadow map (3x3 PCF)
   BtfDebugView debug_view = BtfDebugView::None;
+  // Batched: G-buffer + tiled compute decode + resolve; fragment: the decoder per fragment.
+  // Debug views always draw through the fragment path.
+  BtfDecoder decoder = BtfDecoder::Batched;
 };
 
 // What a quality preset sets when the material does not: low = no ambient decode, nearest;
@@ -103,6 +111,7 @@ Result<std::vector<std::uint32_t>> pack_model(const btf::NeuralBtf& model);
 struct GpuBtfModel {
   gpu::Buffer buffer;
   bool paper_shape = false;  // the decode kernel uses its unrolled variant
+  bool tiled = false;        // the paper's shape: the batched decoder (btf_decode_tiled.glsl) takes it
 };
 // `allow_unrolled` = true: the decode kernel decodes a paper-shaped model with the unrolled
 // variant (materials always use the generic one).
@@ -137,17 +146,26 @@ struct DecodeQuery {
 };
 static_assert(sizeof(DecodeQuery) == 32);
 
-// The decoder as a compute kernel over a buffer of queries (btf_decode.comp): the shader
-// code of the material, without the rasteriser. For tests and the throughput benchmark.
+// Which shader of the decode kernel: Auto = the unrolled one when upload_model allowed it,
+// else the generic one (one query per invocation, btf_decode.glsl); Tiled = the batched
+// decoder of the material's batched path (btf_decode_tiled.glsl; paper-shaped models only).
+enum class DecodeVariant : std::uint8_t { Auto, Generic, Unrolled, Tiled };
+std::string_view to_string(DecodeVariant v);
+
+// The decoder as a compute kernel over a buffer of queries (btf_decode.comp,
+// btf_decode_tiled.comp): the shader code of the material, without the rasteriser. For tests
+// and the throughput benchmark.
 class BtfDecodeKernel {
  public:
   static Result<BtfDecodeKernel> create(gpu::Device& device);
   // Uploads the queries, decodes, reads back one RGBA per query (A = 1).
-  Result<std::vector<vec4>> decode(gpu::Device& device, const GpuBtfModel& model, std::span<const DecodeQuery> queries) const;
+  Result<std::vector<vec4>> decode(gpu::Device& device, const GpuBtfModel& model, std::span<const DecodeQuery> queries,
+                                   DecodeVariant variant = DecodeVariant::Auto) const;
   // For timing: decodes `count` queries already in `queries` into `results` (Storage buffers),
-  // submits and waits. Returns the wall-clock seconds of submit + wait.
+  // submits and waits. Returns the wall-clock seconds of submit + wait. Unsupported when the
+  // variant cannot decode the model's shape.
   Result<double> run(gpu::Device& device, const GpuBtfModel& model, const gpu::Buffer& queries, const gpu::Buffer& results,
-                     std::uint32_t count) const;
+                     std::uint32_t count, DecodeVariant variant = DecodeVariant::Auto) const;
 
  private:
   struct State;
@@ -164,8 +182,10 @@ struct NeuralBtfDraw {
 // A material on the GPU: its parameters, its model buffer and their bind group.
 struct NeuralBtfGpuMaterial;
 
-// The graph pass: draws neural BTF objects into "scene_color"/"scene_depth" (loading what
-// the forward pass drew), reading "frame_uniforms" and "shadow_map".
+// The graph passes: draw neural BTF objects into "scene_color"/"scene_depth" (loading what
+// the forward pass drew), reading "frame_uniforms" and "shadow_map". Batched materials: the
+// passes neural_btf (geometry into the G-buffer), neural_btf_decode (compute),
+// neural_btf_resolve (into the scene colour); fragment-path materials: neural_btf_fragment.
 class NeuralBTFMaterial {
  public:
   static Result<NeuralBTFMaterial> create(gpu::Device& device);
@@ -178,10 +198,15 @@ class NeuralBTFMaterial {
                                                                 const GpuBtfReference& reference) const;
   // `draws` and `materials` must outlive the graph's execution; the materials' model buffers
   // are imported and declared as storage reads.
+  // `width` x `height`: the frame (the batched path's radiance buffer holds one RGBA per pixel).
   Result<void> add(RenderGraph& graph, std::span<const NeuralBtfDraw> draws,
-                   std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials) const;
+                   std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials, std::uint32_t width,
+                   std::uint32_t height) const;
 
  private:
+  Result<void> add_batched(RenderGraph& graph, std::vector<NeuralBtfDraw> draws,
+                           std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials, std::uint32_t width,
+                           std::uint32_t height) const;
   struct State;
   std::shared_ptr<State> state_;
 };

@@ -15,6 +15,7 @@ module;
 #include <utility>
 #include <vector>
 #include <glm/glm.hpp>
+#include <weft/try.h>
 #include "weft_pass_neural_btf_shaders.h"
 module weft.pass.neural_btf;
 import weft.core;
@@ -121,7 +122,7 @@ Result<GpuBtfModel> upload_model(gpu::Device& device, const btf::NeuralBtf& mode
                                                 .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
                                                std::as_bytes(std::span(*words)));
   if (!buffer) return std::unexpected(buffer.error());
-  return GpuBtfModel{std::move(*buffer), allow_unrolled && is_paper_shape(model)};
+  return GpuBtfModel{std::move(*buffer), allow_unrolled && is_paper_shape(model), is_paper_shape(model)};
 }
 
 // ---- the decode kernel ----------------------------------------------------------------------
@@ -131,7 +132,18 @@ struct BtfDecodeKernel::State {
   gpu::PipelineLayout pipeline_layout;
   gpu::ComputePipeline pipeline;        // any shape
   gpu::ComputePipeline paper_pipeline;  // the paper's shape, unrolled
+  gpu::ComputePipeline tiled_pipeline;  // the paper's shape, batched (the material's batched path)
 };
+
+std::string_view to_string(DecodeVariant v) {
+  switch (v) {
+    case DecodeVariant::Auto: return "auto";
+    case DecodeVariant::Generic: return "generic";
+    case DecodeVariant::Unrolled: return "unrolled";
+    case DecodeVariant::Tiled: return "tiled";
+  }
+  return "?";
+}
 
 Result<BtfDecodeKernel> BtfDecodeKernel::create(gpu::Device& device) {
   using gpu::BindingType;
@@ -142,6 +154,9 @@ Result<BtfDecodeKernel> BtfDecodeKernel::create(gpu::Device& device) {
   auto paper_cs = device.create_shader_module(
       {.label = "btf_decode_paper.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_paper_comp()});
   if (!paper_cs) return std::unexpected(paper_cs.error());
+  auto tiled_cs = device.create_shader_module(
+      {.label = "btf_decode_tiled.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_tiled_comp()});
+  if (!tiled_cs) return std::unexpected(tiled_cs.error());
   auto layout = device.create_bind_group_layout({.label = "btf-decode",
                                                  .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
                                                              {1, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
@@ -155,14 +170,22 @@ Result<BtfDecodeKernel> BtfDecodeKernel::create(gpu::Device& device) {
   auto paper_pipeline =
       device.create_compute_pipeline({.label = "btf-decode-paper", .layout = &*pipeline_layout, .module = &*paper_cs});
   if (!paper_pipeline) return std::unexpected(paper_pipeline.error());
+  auto tiled_pipeline =
+      device.create_compute_pipeline({.label = "btf-decode-tiled", .layout = &*pipeline_layout, .module = &*tiled_cs});
+  if (!tiled_pipeline) return std::unexpected(tiled_pipeline.error());
   BtfDecodeKernel k;
-  k.state_ = std::make_shared<State>(
-      State{std::move(*layout), std::move(*pipeline_layout), std::move(*pipeline), std::move(*paper_pipeline)});
+  k.state_ = std::make_shared<State>(State{std::move(*layout), std::move(*pipeline_layout), std::move(*pipeline),
+                                           std::move(*paper_pipeline), std::move(*tiled_pipeline)});
   return k;
 }
 
 Result<double> BtfDecodeKernel::run(gpu::Device& device, const GpuBtfModel& model, const gpu::Buffer& queries,
-                                    const gpu::Buffer& results, std::uint32_t count) const {
+                                    const gpu::Buffer& results, std::uint32_t count, DecodeVariant variant) const {
+  if (variant == DecodeVariant::Auto) variant = model.paper_shape ? DecodeVariant::Unrolled : DecodeVariant::Generic;
+  if ((variant == DecodeVariant::Unrolled || variant == DecodeVariant::Tiled) && !model.tiled)
+    return fail(ErrorKind::Unsupported, "btf decode: the {} shader decodes the paper's shape only (8 + 4 -> 106 x 3 -> 3)",
+                to_string(variant));
+  if (count == 0) return 0.0;
   if (queries.size() < std::uint64_t(count) * sizeof(DecodeQuery) || results.size() < std::uint64_t(count) * sizeof(vec4))
     return fail(ErrorKind::InvalidArgument, "btf decode: {} queries need {} and {} bytes; the buffers have {} and {}", count,
                 std::uint64_t(count) * sizeof(DecodeQuery), std::uint64_t(count) * sizeof(vec4), queries.size(),
@@ -175,10 +198,14 @@ Result<double> BtfDecodeKernel::run(gpu::Device& device, const GpuBtfModel& mode
   if (!enc) return std::unexpected(enc.error());
   {
     auto pass = enc->begin_compute_pass("btf-decode");
-    pass.set_pipeline(model.paper_shape ? state_->paper_pipeline : state_->pipeline);
+    pass.set_pipeline(variant == DecodeVariant::Unrolled ? state_->paper_pipeline
+                      : variant == DecodeVariant::Tiled  ? state_->tiled_pipeline
+                                                         : state_->pipeline);
     pass.set_bind_group(0, *group);
     pass.push(count);
-    pass.dispatch((count + 63) / 64);
+    // The tiled kernel decodes 256 queries a workgroup (32 invocations x 8 rows), the others 64.
+    const std::uint32_t per_group = variant == DecodeVariant::Tiled ? 256 : 64;
+    pass.dispatch((count + per_group - 1) / per_group);
     pass.end();
   }
   auto cmd = enc->finish();
@@ -190,7 +217,7 @@ Result<double> BtfDecodeKernel::run(gpu::Device& device, const GpuBtfModel& mode
 }
 
 Result<std::vector<vec4>> BtfDecodeKernel::decode(gpu::Device& device, const GpuBtfModel& model,
-                                                  std::span<const DecodeQuery> queries) const {
+                                                  std::span<const DecodeQuery> queries, DecodeVariant variant) const {
   if (queries.empty()) return std::vector<vec4>{};
   auto in = device.create_buffer_with_data(
       {.label = "btf-queries", .size = queries.size_bytes(), .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
@@ -199,7 +226,8 @@ Result<std::vector<vec4>> BtfDecodeKernel::decode(gpu::Device& device, const Gpu
   auto out = device.create_buffer({.label = "btf-results", .size = queries.size() * sizeof(vec4),
                                    .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopySrc});
   if (!out) return std::unexpected(out.error());
-  if (auto ok = run(device, model, *in, *out, std::uint32_t(queries.size())); !ok) return std::unexpected(ok.error());
+  if (auto ok = run(device, model, *in, *out, std::uint32_t(queries.size()), variant); !ok)
+    return std::unexpected(ok.error());
   auto bytes = device.queue().read_buffer(*out);
   if (!bytes) return std::unexpected(bytes.error());
   std::vector<vec4> results(queries.size());
@@ -212,8 +240,9 @@ Result<std::vector<vec4>> BtfDecodeKernel::decode(gpu::Device& device, const Gpu
 struct NeuralBtfGpuMaterial {
   btf::NeuralBtfParams params;
   const gpu::Buffer* model = nullptr;  // the packed model, or the raw BTF (reference)
+  bool tiled = false;                  // the model has the paper's shape (GpuBtfModel::tiled)
   gpu::BindGroup group;
-  bool reference = false;
+  bool reference = false;              // the raw BTF: drawn through the fragment path
 };
 
 struct NeuralBTFMaterial::State {
@@ -225,7 +254,30 @@ struct NeuralBTFMaterial::State {
   gpu::RenderPipeline pipeline;
   gpu::RenderPipeline reference_pipeline;  // the raw BTF sampled instead (btf_reference.glsl)
   gpu::Sampler shadow_compare;
+  // The batched path: geometry into the G-buffer (same layouts as the fragment path), the
+  // tiled decode (paper shape; any other shape per row), the resolve into the scene colour.
+  gpu::RenderPipeline gbuffer_pipeline;
+  gpu::BindGroupLayout decode_layout;
+  gpu::PipelineLayout decode_pipeline_layout;
+  gpu::ComputePipeline decode_tiled;
+  gpu::ComputePipeline decode_generic;
+  gpu::BindGroupLayout resolve_layout;
+  gpu::PipelineLayout resolve_pipeline_layout;
+  gpu::RenderPipeline resolve_pipeline;
+  gpu::Sampler nearest;
 };
+
+namespace {
+// The G-buffer of the batched path (neural_btf_gbuffer.frag): fp32, so the decode sees the
+// fragment path's numbers exactly.
+constexpr gpu::Format gbuffer_format = gpu::Format::RGBA32Float;
+constexpr const char* gbuffer_names[4] = {"neural_btf_coords", "neural_btf_light", "neural_btf_light_weight",
+                                          "neural_btf_ambient_weight"};
+constexpr std::uint32_t decode_tile = 16;  // btf_decode_tiles.glsl's TILE
+struct DecodePush {
+  std::uint32_t width, height, model, pad;
+};
+}  // namespace
 
 Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
   using gpu::BindingType;
@@ -240,6 +292,23 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
                                                    .stage = ShaderStage::Fragment,
                                                    .spirv = shaders::neural_btf_reference_frag()});
   if (!reference_fs) return std::unexpected(reference_fs.error());
+  auto gbuffer_fs = device.create_shader_module(
+      {.label = "neural_btf_gbuffer.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_gbuffer_frag()});
+  if (!gbuffer_fs) return std::unexpected(gbuffer_fs.error());
+  auto tiled_cs = device.create_shader_module(
+      {.label = "btf_decode_tiles.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_tiles_comp()});
+  if (!tiled_cs) return std::unexpected(tiled_cs.error());
+  auto generic_cs = device.create_shader_module({.label = "btf_decode_tiles_generic.comp",
+                                                 .stage = ShaderStage::Compute,
+                                                 .spirv = shaders::btf_decode_tiles_generic_comp()});
+  if (!generic_cs) return std::unexpected(generic_cs.error());
+  auto fullscreen_vs = device.create_shader_module(
+      {.label = "fullscreen.vert", .stage = ShaderStage::Vertex, .spirv = frame::fullscreen_vertex_spirv()});
+  if (!fullscreen_vs) return std::unexpected(fullscreen_vs.error());
+  auto resolve_fs = device.create_shader_module(
+      {.label = "neural_btf_resolve.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_resolve_frag()});
+  if (!resolve_fs) return std::unexpected(resolve_fs.error());
+
   auto frame_layout = device.create_bind_group_layout(
       {.label = "neural-btf-frame",
        .entries = {{0, BindingType::UniformBuffer, ShaderStage::Vertex | ShaderStage::Fragment},
@@ -259,10 +328,60 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
   if (!reference_pipeline) return std::unexpected(reference_pipeline.error());
   auto shadow_compare = frame::create_shadow_compare_sampler(device, "neural-btf-shadow");
   if (!shadow_compare) return std::unexpected(shadow_compare.error());
+
+  auto gbuffer_pipeline = device.create_render_pipeline(
+      {.label = "neural-btf-gbuffer",
+       .layout = &*layout,
+       .vertex = &*vs,
+       .fragment = &*gbuffer_fs,
+       .vertex_buffers = {frame::vertex_layout()},
+       .cull_mode = gpu::CullMode::None,
+       .color_targets = {{gbuffer_format}, {gbuffer_format}, {gbuffer_format}, {gbuffer_format}},
+       .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
+  if (!gbuffer_pipeline) return std::unexpected(gbuffer_pipeline.error());
+  auto decode_layout = device.create_bind_group_layout({.label = "neural-btf-decode",
+                                                        .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
+                                                                    {1, BindingType::TextureSampler, ShaderStage::Compute},
+                                                                    {2, BindingType::TextureSampler, ShaderStage::Compute},
+                                                                    {3, BindingType::TextureSampler, ShaderStage::Compute},
+                                                                    {4, BindingType::TextureSampler, ShaderStage::Compute},
+                                                                    {5, BindingType::StorageBuffer, ShaderStage::Compute}}});
+  if (!decode_layout) return std::unexpected(decode_layout.error());
+  auto decode_pipeline_layout = device.create_pipeline_layout(
+      {.label = "neural-btf-decode", .bind_group_layouts = {&*decode_layout}, .push_constant_size = sizeof(DecodePush)});
+  if (!decode_pipeline_layout) return std::unexpected(decode_pipeline_layout.error());
+  auto decode_tiled = device.create_compute_pipeline(
+      {.label = "neural-btf-decode-tiled", .layout = &*decode_pipeline_layout, .module = &*tiled_cs});
+  if (!decode_tiled) return std::unexpected(decode_tiled.error());
+  auto decode_generic = device.create_compute_pipeline(
+      {.label = "neural-btf-decode-generic", .layout = &*decode_pipeline_layout, .module = &*generic_cs});
+  if (!decode_generic) return std::unexpected(decode_generic.error());
+  auto resolve_layout = device.create_bind_group_layout(
+      {.label = "neural-btf-resolve",
+       .entries = {{0, BindingType::TextureSampler, ShaderStage::Fragment},
+                   {1, BindingType::ReadOnlyStorageBuffer, ShaderStage::Fragment}}});
+  if (!resolve_layout) return std::unexpected(resolve_layout.error());
+  auto resolve_pipeline_layout = device.create_pipeline_layout(
+      {.label = "neural-btf-resolve", .bind_group_layouts = {&*resolve_layout}, .push_constant_size = sizeof(DecodePush)});
+  if (!resolve_pipeline_layout) return std::unexpected(resolve_pipeline_layout.error());
+  auto resolve_pipeline = device.create_render_pipeline({.label = "neural-btf-resolve",
+                                                         .layout = &*resolve_pipeline_layout,
+                                                         .vertex = &*fullscreen_vs,
+                                                         .fragment = &*resolve_fs,
+                                                         .color_targets = {{color_format}}});
+  if (!resolve_pipeline) return std::unexpected(resolve_pipeline.error());
+  auto nearest = device.create_sampler(
+      {.label = "neural-btf-gbuffer", .mag_filter = gpu::FilterMode::Nearest, .min_filter = gpu::FilterMode::Nearest});
+  if (!nearest) return std::unexpected(nearest.error());
+
   NeuralBTFMaterial pass;
   pass.state_ = std::make_shared<State>(State{std::move(*frame_layout), std::move(*material_layout), std::move(*layout),
                                               std::move(*pipeline), std::move(*reference_pipeline),
-                                              std::move(*shadow_compare)});
+                                              std::move(*shadow_compare), std::move(*gbuffer_pipeline), std::move(*decode_layout),
+                                              std::move(*decode_pipeline_layout), std::move(*decode_tiled),
+                                              std::move(*decode_generic), std::move(*resolve_layout),
+                                              std::move(*resolve_pipeline_layout), std::move(*resolve_pipeline),
+                                              std::move(*nearest)});
   return pass;
 }
 
@@ -272,7 +391,8 @@ Result<std::shared_ptr<NeuralBtfGpuMaterial>> NeuralBTFMaterial::create_material
   auto group = device.create_bind_group(
       {.label = "neural-btf-model", .layout = &state_->material_layout, .entries = {gpu::bind(0, model.buffer)}});
   if (!group) return std::unexpected(group.error());
-  return std::make_shared<NeuralBtfGpuMaterial>(NeuralBtfGpuMaterial{params, &model.buffer, std::move(*group), false});
+  return std::make_shared<NeuralBtfGpuMaterial>(
+      NeuralBtfGpuMaterial{params, &model.buffer, model.tiled, std::move(*group), false});
 }
 
 Result<std::shared_ptr<NeuralBtfGpuMaterial>> NeuralBTFMaterial::create_material(gpu::Device& device,
@@ -282,57 +402,227 @@ Result<std::shared_ptr<NeuralBtfGpuMaterial>> NeuralBTFMaterial::create_material
                                          .layout = &state_->material_layout,
                                          .entries = {gpu::bind(0, reference.buffer)}});
   if (!group) return std::unexpected(group.error());
-  return std::make_shared<NeuralBtfGpuMaterial>(NeuralBtfGpuMaterial{params, &reference.buffer, std::move(*group), true});
+  return std::make_shared<NeuralBtfGpuMaterial>(
+      NeuralBtfGpuMaterial{params, &reference.buffer, false, std::move(*group), true});
 }
 
+namespace {
+
+// The raw-BTF reference and the debug views draw through the fragment path.
+bool batched(const NeuralBtfGpuMaterial& mat) {
+  const btf::NeuralBtfParams& m = mat.params;
+  return !mat.reference && m.decoder == btf::BtfDecoder::Batched && m.debug_view == btf::BtfDebugView::None;
+}
+
+NeuralBtfConstants draw_constants(const NeuralBtfDraw& draw, const btf::NeuralBtfParams& m, float marker) {
+  const int flags = (m.ambient ? flag_ambient : 0) | (m.filter == btf::TexelFilter::Bilinear ? flag_bilinear : 0) |
+                    (m.shadow ? flag_shadow : 0);
+  NeuralBtfConstants c{};
+  c.model = draw.model;
+  c.uv_scale = vec4(m.uv_scale, float(flags), m.exposure);
+  c.tint = vec4(m.tint, 1.0f);
+  c.debug = vec4(float(int(m.debug_view)), marker, 0.0f, 0.0f);
+  return c;
+}
+
+}  // namespace
+
 Result<void> NeuralBTFMaterial::add(RenderGraph& graph, std::span<const NeuralBtfDraw> draws,
-                                std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials) const {
+                                    std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials, std::uint32_t width,
+                                    std::uint32_t height) const {
   for (const auto& d : draws)
     if (!d.mesh || d.material >= materials.size() || !materials[d.material])
       return fail(ErrorKind::InvalidArgument, "neural BTF pass: a draw names material {} of {} (or has no mesh)",
                   d.material, materials.size());
-  // Each distinct model buffer once: the graph sees the pass read it.
+  std::vector<NeuralBtfDraw> batched_draws, fragment_draws;
+  for (const auto& d : draws) (batched(*materials[d.material]) ? batched_draws : fragment_draws).push_back(d);
+  if (!batched_draws.empty())
+    if (auto ok = add_batched(graph, std::move(batched_draws), materials, width, height); !ok) return ok;
+  if (fragment_draws.empty()) return {};
+
+  // The fragment path: each distinct model buffer once, so the graph sees the pass read it.
   std::vector<const gpu::Buffer*> models;
-  for (const auto& m : materials)
-    if (std::find(models.begin(), models.end(), m->model) == models.end()) models.push_back(m->model);
-  frame::ScenePassDesc desc{.name = "neural_btf"};
+  for (const auto& d : fragment_draws)
+    if (std::find(models.begin(), models.end(), materials[d.material]->model) == models.end())
+      models.push_back(materials[d.material]->model);
+  frame::ScenePassDesc desc{.name = "neural_btf_fragment"};
   for (std::size_t i = 0; i < models.size(); ++i)
-    desc.buffers.push_back(
-        {models.size() == 1 ? std::string("neural_btf_model") : weft::format("neural_btf_model_{}", i), models[i]});
+    desc.buffers.push_back({models.size() == 1 ? std::string("neural_btf_model") : weft::format("neural_btf_model_{}", i),
+                            models[i]});
   auto state = state_;
-  return frame::add_scene_color_pass(graph, std::move(desc), [state, draws, materials](frame::ScenePassDraw& scene) {
-    PassContext& ctx = scene.context;
-    auto group = ctx.device().create_bind_group(
-        {.label = "neural-btf-frame",
-         .layout = &state->frame_layout,
-         .entries = {gpu::bind(0, scene.uniforms), gpu::bind(1, scene.shadow_map, &state->shadow_compare)}});
-    if (!group) return ctx.encoder().report_error(group.error());
-    const auto& frame_group = ctx.keep(std::move(*group));
-    gpu::RenderPassEncoder& pass = scene.pass;
-    const gpu::RenderPipeline* bound = nullptr;
-    for (const NeuralBtfDraw& draw : draws) {
-      const NeuralBtfGpuMaterial& mat = *materials[draw.material];
-      const gpu::RenderPipeline* pipeline = mat.reference ? &state->reference_pipeline : &state->pipeline;
-      if (pipeline != bound) {
-        pass.set_pipeline(*pipeline);
-        pass.set_bind_group(0, frame_group);
-        bound = pipeline;
-      }
-      const btf::NeuralBtfParams& m = mat.params;
-      const int flags = (m.ambient ? flag_ambient : 0) | (m.filter == btf::TexelFilter::Bilinear ? flag_bilinear : 0) |
-                        (m.shadow ? flag_shadow : 0);
-      NeuralBtfConstants c{};
-      c.model = draw.model;
-      c.uv_scale = vec4(m.uv_scale, float(flags), m.exposure);
-      c.tint = vec4(m.tint, 1.0f);
-      c.debug = vec4(float(int(m.debug_view)), 0.0f, 0.0f, 0.0f);
-      pass.set_bind_group(1, mat.group);
-      pass.push(c);
-      pass.set_vertex_buffer(0, draw.mesh->vertices);
-      pass.set_index_buffer(draw.mesh->indices);
-      pass.draw_indexed(draw.mesh->index_count);
+  return frame::add_scene_color_pass(
+      graph, std::move(desc), [state, draws = std::move(fragment_draws), materials](frame::ScenePassDraw& scene) {
+        PassContext& ctx = scene.context;
+        auto group = ctx.device().create_bind_group(
+            {.label = "neural-btf-frame",
+             .layout = &state->frame_layout,
+             .entries = {gpu::bind(0, scene.uniforms), gpu::bind(1, scene.shadow_map, &state->shadow_compare)}});
+        if (!group) return ctx.encoder().report_error(group.error());
+        const auto& frame_group = ctx.keep(std::move(*group));
+        gpu::RenderPassEncoder& pass = scene.pass;
+        const gpu::RenderPipeline* bound = nullptr;
+        for (const NeuralBtfDraw& draw : draws) {
+          const NeuralBtfGpuMaterial& mat = *materials[draw.material];
+          const gpu::RenderPipeline* pipeline = mat.reference ? &state->reference_pipeline : &state->pipeline;
+          if (pipeline != bound) {
+            pass.set_pipeline(*pipeline);
+            pass.set_bind_group(0, frame_group);
+            bound = pipeline;
+          }
+          pass.set_bind_group(1, mat.group);
+          pass.push(draw_constants(draw, mat.params, 0.0f));
+          pass.set_vertex_buffer(0, draw.mesh->vertices);
+          pass.set_index_buffer(draw.mesh->indices);
+          pass.draw_indexed(draw.mesh->index_count);
+        }
+      });
+}
+
+// The batched path (docs/neural-btf.md, "The batched decode"): neural_btf draws the objects
+// into a G-buffer of decode inputs and the scene depth; neural_btf_decode (one pass per model,
+// so the graph orders their writes of the radiance buffer) decodes each 16 x 16 tile's pixels
+// in batches; neural_btf_resolve writes the radiance of the marked pixels into the scene colour.
+Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<NeuralBtfDraw> draws,
+                                            std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials,
+                                            std::uint32_t width, std::uint32_t height) const {
+  if (width == 0 || height == 0)
+    return fail(ErrorKind::InvalidArgument, "neural BTF pass: the frame is {} x {} pixels", width, height);
+  WEFT_TRY(frame::SceneTargets shared, frame::scene_targets(graph.blackboard(), {.environment = false}));
+  // The distinct models, in the order the G-buffer's marker numbers them.
+  struct Model {
+    const gpu::Buffer* buffer;
+    bool tiled;
+    BufferHandle handle;
+  };
+  std::vector<Model> models;
+  std::vector<float> marker_of_draw;
+  for (const auto& d : draws) {
+    const NeuralBtfGpuMaterial& mat = *materials[d.material];
+    std::size_t m = 0;
+    while (m < models.size() && models[m].buffer != mat.model) ++m;
+    if (m == models.size()) {
+      const std::string name = weft::format("neural_btf_model{}", m == 0 ? std::string() : weft::format("_{}", m));
+      models.push_back({mat.model, mat.tiled, graph.import_buffer(name, mat.model, gpu::Access::StorageRead)});
     }
-  });
+    marker_of_draw.push_back(float(2 * m + (mat.params.filter == btf::TexelFilter::Bilinear ? 1 : 0) + 1));
+  }
+
+  struct GeometryData {
+    BufferHandle uniforms;
+    TextureHandle shadow_map;
+    TextureHandle gbuffer[4];
+    TextureHandle depth;
+  };
+  auto state = state_;
+  auto& geometry = graph.add_pass<GeometryData>(
+      "neural_btf",
+      [&](PassBuilder& b, GeometryData& d) {
+        d.uniforms = b.read(shared.uniforms, BufferUse::Uniform);
+        d.shadow_map = b.read(shared.shadow_map, TextureUse::Sampled);
+        for (const Model& m : models) b.read(m.handle, BufferUse::StorageRead);
+        for (int i = 0; i < 4; ++i)
+          d.gbuffer[i] = b.write(b.create_texture(gbuffer_names[i], {.size = RelativeSize{1.0f}, .format = gbuffer_format}),
+                                 TextureUse::ColorAttachment);
+        d.depth = b.write(shared.depth, TextureUse::DepthAttachment);
+      },
+      [state, draws, materials, marker_of_draw](const PassResources& res, const GeometryData& d, PassContext& ctx) {
+        auto group = ctx.device().create_bind_group(
+            {.label = "neural-btf-frame",
+             .layout = &state->frame_layout,
+             .entries = {gpu::bind(0, res.buffer(d.uniforms)), gpu::bind(1, res.view(d.shadow_map), &state->shadow_compare)}});
+        if (!group) return ctx.encoder().report_error(group.error());
+        const auto& frame_group = ctx.keep(std::move(*group));
+        gpu::RenderPassDescriptor rp{.label = "neural_btf"};
+        for (int i = 0; i < 4; ++i)
+          rp.color_attachments.push_back({.view = &res.view(d.gbuffer[i]), .load = gpu::LoadOp::Clear,
+                                          .clear_color = vec4(0.0f)});
+        rp.depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .load = gpu::LoadOp::Load};
+        auto pass = ctx.encoder().begin_render_pass(rp);
+        pass.set_pipeline(state->gbuffer_pipeline);
+        pass.set_bind_group(0, frame_group);
+        for (std::size_t i = 0; i < draws.size(); ++i) {
+          const NeuralBtfDraw& draw = draws[i];
+          const NeuralBtfGpuMaterial& mat = *materials[draw.material];
+          pass.set_bind_group(1, mat.group);
+          pass.push(draw_constants(draw, mat.params, marker_of_draw[i]));
+          pass.set_vertex_buffer(0, draw.mesh->vertices);
+          pass.set_index_buffer(draw.mesh->indices);
+          pass.draw_indexed(draw.mesh->index_count);
+        }
+        pass.end();
+      });
+  const GeometryData g = geometry;
+
+  struct DecodeData {
+    TextureHandle gbuffer[4];
+    BufferHandle model;
+    BufferHandle radiance;
+  };
+  BufferHandle radiance;
+  for (std::size_t m = 0; m < models.size(); ++m) {
+    const bool first = m == 0;
+    auto& decode = graph.add_pass<DecodeData>(
+        m == 0 ? std::string("neural_btf_decode") : weft::format("neural_btf_decode_{}", m),
+        [&](PassBuilder& b, DecodeData& d) {
+          for (int i = 0; i < 4; ++i) d.gbuffer[i] = b.read(g.gbuffer[i], TextureUse::Sampled);
+          d.model = b.read(models[m].handle, BufferUse::StorageRead);
+          const BufferHandle target =
+              first ? b.create_buffer("neural_btf_radiance", {.size = std::uint64_t(width) * height * sizeof(vec4)})
+                    : radiance;
+          d.radiance = b.write(target, BufferUse::StorageWrite);
+          b.kind(PassKind::Compute);
+        },
+        [state, width, height, index = std::uint32_t(m), tiled = models[m].tiled](const PassResources& res,
+                                                                                   const DecodeData& d, PassContext& ctx) {
+          auto group = ctx.device().create_bind_group(
+              {.label = "neural-btf-decode",
+               .layout = &state->decode_layout,
+               .entries = {gpu::bind(0, res.buffer(d.model)), gpu::bind(1, res.view(d.gbuffer[0]), &state->nearest),
+                           gpu::bind(2, res.view(d.gbuffer[1]), &state->nearest),
+                           gpu::bind(3, res.view(d.gbuffer[2]), &state->nearest),
+                           gpu::bind(4, res.view(d.gbuffer[3]), &state->nearest), gpu::bind(5, res.buffer(d.radiance))}});
+          if (!group) return ctx.encoder().report_error(group.error());
+          const auto& decode_group = ctx.keep(std::move(*group));
+          auto pass = ctx.encoder().begin_compute_pass("neural_btf_decode");
+          pass.set_pipeline(tiled ? state->decode_tiled : state->decode_generic);
+          pass.set_bind_group(0, decode_group);
+          pass.push(DecodePush{width, height, index, 0});
+          pass.dispatch((width + decode_tile - 1) / decode_tile, (height + decode_tile - 1) / decode_tile);
+          pass.end();
+        });
+    radiance = decode.radiance;
+  }
+
+  struct ResolveData {
+    TextureHandle light;
+    BufferHandle radiance;
+    TextureHandle color;
+  };
+  auto& resolve = graph.add_pass<ResolveData>(
+      "neural_btf_resolve",
+      [&](PassBuilder& b, ResolveData& d) {
+        d.light = b.read(g.gbuffer[1], TextureUse::Sampled);
+        d.radiance = b.read(radiance, BufferUse::StorageRead);
+        d.color = b.write(shared.color, TextureUse::ColorAttachment);
+      },
+      [state, width, height](const PassResources& res, const ResolveData& d, PassContext& ctx) {
+        auto group = ctx.device().create_bind_group(
+            {.label = "neural-btf-resolve",
+             .layout = &state->resolve_layout,
+             .entries = {gpu::bind(0, res.view(d.light), &state->nearest), gpu::bind(1, res.buffer(d.radiance))}});
+        if (!group) return ctx.encoder().report_error(group.error());
+        const auto& resolve_group = ctx.keep(std::move(*group));
+        auto pass = ctx.encoder().begin_render_pass(
+            {.label = "neural_btf_resolve",
+             .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}}});
+        pass.set_pipeline(state->resolve_pipeline);
+        pass.set_bind_group(0, resolve_group);
+        pass.push(DecodePush{width, height, 0, 0});
+        pass.draw(3);
+        pass.end();
+      });
+  frame::put_scene_targets(graph.blackboard(), {.color = resolve.color, .depth = g.depth});
+  return {};
 }
 
 }  // namespace weft::passes

@@ -1,18 +1,24 @@
 // weft.pass.neural_btf on lavapipe, under validation + synchronization validation: the shader's
 // decoder (the decode kernel, same GLSL as the material) against the CPU decode on a grid of
-// texels and directions including θ = 0 and θ = 90°; a flat quad seen straight on through the
-// renderer against the CPU decode per pixel (key light, then the ambient term alone); the
-// renderer adds the pass only for scenes with neural_btf materials; material errors; the
-// reference mode (the raw BTF in a storage buffer) against the CPU sample_reference per pixel.
+// texels and directions including θ = 0 and θ = 90°; the batched (tiled) decoder against the
+// CPU decode on random queries; a flat quad seen straight on through the renderer against the
+// CPU decode per pixel (key light, then the ambient term alone), through both decoders; the
+// cushion scene (examples/scenes/neural_btf.json) through the batched path against the
+// fragment path, both rendered here; the renderer adds the passes only for scenes with
+// neural_btf materials; material errors; the reference mode (the raw BTF in a storage buffer,
+// drawn through the fragment path) against the CPU sample_reference per pixel.
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstdlib>
 #include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
+#include <random>
 #include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
 import weft.core;
 import weft.gpu;
 import weft.image;
@@ -174,6 +180,21 @@ TEST_CASE("the shader's decoder equals the CPU decode on a grid of texels and di
     MESSAGE("variant " << variant << std::string(buffer->paper_shape ? " (unrolled)" : " (generic)") << ": " << queries.size() << " queries, worst relative difference " << worst
                        << ", largest output " << largest);
     CHECK(nonzero > int(queries.size()) / 4);  // not a comparison of zeros (ReLU-clamped outputs)
+    // The batched decoder takes the paper's shape only, and refuses the others by name.
+    auto tiled = kernel->decode(device(), *buffer, queries, passes::DecodeVariant::Tiled);
+    if (variant == 3) {
+      REQUIRE_FALSE(tiled);
+      CHECK(tiled.error().message.find("paper's shape") != std::string::npos);
+      continue;
+    }
+    REQUIRE_MESSAGE(tiled, (tiled ? "" : tiled.error().message));
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+      const auto& q = queries[i];
+      const vec3 cpu = btf::decode(model, std::size_t(q.texel), q.light, q.view);
+      for (int c = 0; c < 3; ++c)
+        CHECK_MESSAGE(std::abs((*tiled)[i][c] - cpu[c]) <= 1e-4f * std::max(1.0f, std::abs(cpu[c])),
+                      "tiled, query " << i << " channel " << c);
+    }
   }
   weft::test::expect_no_validation_messages();
 }
@@ -184,11 +205,15 @@ TEST_CASE("a straight-on quad through the renderer: every covered pixel is the C
   const vec3 towards_light = glm::normalize(vec3(-0.4f, 0.3f, 1.0f));
   const std::string lights = weft::format(R"([{{"type": "directional", "direction": [{}, {}, {}], "intensity": 1}}])",
                                           -towards_light.x, -towards_light.y, -towards_light.z);
-  auto s = load(quad_scene(weft::format(R"({{"type": "neural_btf", "model": "{}", "ambient": false, "shadow": false}})", path),
+  for (const char* decoder : {"batched", "fragment"}) {
+  CAPTURE(decoder);
+  auto s = load(quad_scene(weft::format(R"({{"type": "neural_btf", "model": "{}", "ambient": false, "shadow": false,
+                                            "decoder": "{}"}})", path, decoder),
                            lights));
   auto frame = shared_renderer().render(s, {.quality = Quality::Medium, .aces = false});
   REQUIRE_MESSAGE(frame, (frame ? "" : frame.error().message));
-  CHECK(std::find(frame->passes.begin(), frame->passes.end(), "neural_btf") != frame->passes.end());
+  const char* pass = std::string(decoder) == "batched" ? "neural_btf_decode" : "neural_btf_fragment";
+  CHECK(std::find(frame->passes.begin(), frame->passes.end(), pass) != frame->passes.end());
   int checked = 0, lit = 0;
   for (std::uint32_t y = 0; y < 64; ++y)
     for (std::uint32_t x = 0; x < 64; ++x) {
@@ -206,6 +231,7 @@ TEST_CASE("a straight-on quad through the renderer: every covered pixel is the C
     }
   CHECK(checked > 1500);
   CHECK(lit > 1500);
+  }
   weft::test::expect_no_validation_messages();
 }
 
@@ -266,7 +292,7 @@ TEST_CASE("the reference mode: every covered pixel is the CPU sample_reference o
                            lights));
   auto frame = shared_renderer().render(s, {.quality = Quality::Medium, .aces = false});
   REQUIRE_MESSAGE(frame, (frame ? "" : frame.error().message));
-  CHECK(std::find(frame->passes.begin(), frame->passes.end(), "neural_btf") != frame->passes.end());
+  CHECK(std::find(frame->passes.begin(), frame->passes.end(), "neural_btf_fragment") != frame->passes.end());
   int checked = 0;
   double largest = 0.0;
   for (std::uint32_t y = 0; y < 64; ++y)
@@ -312,13 +338,117 @@ TEST_CASE("the reference mode's buffer: directions then samples; a BTF too large
   CHECK(none.error().message.find("does not fit") != std::string::npos);
 }
 
+TEST_CASE("the batched (tiled) decoder equals the CPU decode on random queries: max |Δ| <= 1e-4") {
+  auto kernel = passes::BtfDecodeKernel::create(device());
+  REQUIRE_MESSAGE(kernel, (kernel ? "" : kernel.error().message));
+  // The paper's shape, plain and clustered with per-texel scales; 4,001 queries (not a whole
+  // number of 64-row batches), random texels and directions over the hemisphere and below it.
+  for (int variant = 0; variant < 2; ++variant) {
+    const btf::NeuralBtf model =
+        variant == 0 ? btf::random_model({.width = 20, .height = 20, .seed = 21})
+                     : btf::random_model({.width = 30, .height = 10, .clusters = 40, .scales = true, .output_scale = 1.7f,
+                                          .seed = 22});
+    auto buffer = passes::upload_model(device(), model, "test-model");
+    REQUIRE_MESSAGE(buffer, (buffer ? "" : buffer.error().message));
+    CHECK(buffer->tiled);
+    std::mt19937 rng(7 + variant);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    std::vector<passes::DecodeQuery> queries(4001);
+    for (auto& q : queries)
+      q = {vec3(u(rng), u(rng), u(rng)), float(rng() % model.texels()), vec3(u(rng), u(rng), std::abs(u(rng))), 0.0f};
+    auto gpu = kernel->decode(device(), *buffer, queries, passes::DecodeVariant::Tiled);
+    REQUIRE_MESSAGE(gpu, (gpu ? "" : gpu.error().message));
+    double worst = 0.0, largest = 0.0;
+    int nonzero = 0;
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+      const auto& q = queries[i];
+      const vec3 cpu = btf::decode(model, std::size_t(q.texel), q.light, q.view);
+      for (int c = 0; c < 3; ++c) {
+        const double d = std::abs(double((*gpu)[i][c]) - cpu[c]);
+        worst = std::max(worst, d);
+        largest = std::max(largest, double(std::abs(cpu[c])));
+        if (cpu[c] > 0.0f) ++nonzero;
+      }
+    }
+    MESSAGE("tiled decoder, model " << variant << ": max |gpu - cpu| " << worst << " over " << queries.size()
+                                    << " queries (largest output " << largest << ")");
+    CHECK(worst <= 1e-4);
+    CHECK(largest > 0.5);
+    CHECK(nonzero > int(queries.size()) / 4);  // not a comparison of zeros (ReLU-clamped outputs)
+  }
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("the cushion scene through the batched decoder equals the fragment decoder: RMSE <= 1e-3 (linear)") {
+  const char* source = std::getenv("WEFT_SOURCE_DIR");
+  REQUIRE_MESSAGE(source, "WEFT_SOURCE_DIR is set by ctest");
+  auto desc = scene::load_scene(std::filesystem::path(source) / "examples/scenes/neural_btf.json");
+  REQUIRE_MESSAGE(desc, (desc ? "" : desc.error().message));
+  // Medium (nearest + ambient) and high (bilinear: four texels a term), smaller than the
+  // scene's 960 x 540 to keep the fragment path's time down.
+  struct Case {
+    Quality quality;
+    std::uint32_t width, height;
+  };
+  for (const Case c : {Case{Quality::Medium, 480, 270}, Case{Quality::High, 240, 136}}) {
+    CAPTURE(int(c.quality));
+    auto render = [&](const char* decoder, bool black) {
+      scene::Scene s = *desc;
+      for (auto& m : s.materials)
+        if (m.params.is_object() && m.params.contains("model")) {
+          m.params["decoder"] = decoder;
+          if (black) m.params["tint"] = {0.0, 0.0, 0.0};
+        }
+      auto frame = shared_renderer().render(
+          s, {.width = c.width, .height = c.height, .quality = c.quality, .aces = false, .read_hdr = true});
+      REQUIRE_MESSAGE(frame, (frame ? "" : frame.error().message));
+      return std::move(*frame);
+    };
+    const auto batched = render("batched", false);
+    const auto fragment = render("fragment", false);
+    const auto black = render("batched", true);  // where the cloth is: the pixels that change
+    CHECK(std::find(batched.passes.begin(), batched.passes.end(), "neural_btf_decode") != batched.passes.end());
+    CHECK(std::find(fragment.passes.begin(), fragment.passes.end(), "neural_btf_fragment") != fragment.passes.end());
+    double sum = 0.0, cloth_sum = 0.0, worst = 0.0, cloth_mean = 0.0;
+    std::size_t n = 0, cloth = 0;
+    for (std::uint32_t y = 0; y < c.height; ++y)
+      for (std::uint32_t x = 0; x < c.width; ++x) {
+        bool is_cloth = false;
+        for (std::uint32_t ch = 0; ch < 3; ++ch) {
+          const double a = batched.hdr.at(x, y, ch), b = fragment.hdr.at(x, y, ch);
+          REQUIRE(std::isfinite(a));
+          sum += (a - b) * (a - b);
+          worst = std::max(worst, std::abs(a - b));
+          ++n;
+          is_cloth = is_cloth || std::abs(b - black.hdr.at(x, y, ch)) > 1e-3;
+        }
+        if (!is_cloth) continue;
+        ++cloth;
+        for (std::uint32_t ch = 0; ch < 3; ++ch) {
+          const double a = batched.hdr.at(x, y, ch), b = fragment.hdr.at(x, y, ch);
+          cloth_sum += (a - b) * (a - b);
+          cloth_mean += b / 3.0;
+        }
+      }
+    const double rmse = std::sqrt(sum / double(n)), cloth_rmse = std::sqrt(cloth_sum / double(3 * std::max<std::size_t>(cloth, 1)));
+    MESSAGE("batched vs fragment: RMSE " << rmse << " over the frame, " << cloth_rmse << " over " << cloth
+                                         << " cloth pixels (mean " << cloth_mean / double(std::max<std::size_t>(cloth, 1))
+                                         << "), max |Δ| " << worst);
+    CHECK(cloth > c.width * c.height / 20);  // the cushion and the bolt cover a good part of the frame
+    CHECK(rmse <= 1e-3);
+    CHECK(cloth_rmse <= 1e-3);
+  }
+  weft::test::expect_no_validation_messages();
+}
+
 TEST_CASE("the renderer adds the neural_btf pass only for scenes that use the material") {
   const std::string path = save_model(displayable_model(3, false), "culling.wbtf");
   const std::string light = R"([{"type": "directional", "direction": [0, 0, -1], "intensity": 1}])";
   auto with = load(quad_scene(weft::format(R"({{"type": "neural_btf", "model": "{}"}})", path), light));
   auto report = shared_renderer().describe(with, {.quality = Quality::Low});
   REQUIRE_MESSAGE(report, (report ? "" : report.error().message));
-  CHECK(report->passes == std::vector<std::string>{"shadow_map", "forward", "neural_btf", "background", "tonemap"});
+  CHECK(report->passes == std::vector<std::string>{"shadow_map", "forward", "neural_btf", "neural_btf_decode",
+                                                   "neural_btf_resolve", "background", "tonemap"});
   CHECK(report->dot.find("neural_btf_model") != std::string::npos);
   auto plain = load(quad_scene(R"({"type": "standard"})", light));
   auto other = shared_renderer().describe(plain, {.quality = Quality::Low});
