@@ -207,7 +207,9 @@ const FeatureDescriptor& neural_btf_feature() {
     d.doc = "docs/neural-btf.md";
     d.check_material = &check_material;
     d.create = &create_feature;
-    d.passes = {"neural_btf", "neural_btf_decode", "neural_btf_resolve", "neural_btf_fragment"};
+    // The default (batched) path's passes; a "decoder": "fragment" material draws in
+    // neural_btf_fragment instead, which the trade-off study's pass times then leave out.
+    d.passes = {"neural_btf", "neural_btf_decode", "neural_btf_resolve"};
     d.knobs = {
         choice_knob("filter", {"nearest", "bilinear"}, "texels decoded per light: 1, or 4 blended"),
         boolean_knob("ambient", "one more decode (ω_i = n) times the environment's SH irradiance"),
