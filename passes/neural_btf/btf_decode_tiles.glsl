@@ -35,25 +35,7 @@ shared uint tile_list[4u * TILE_PIXELS];  // (pixel | tap << 8) pairs of the cur
 shared vec3 tile_tap[4u * TILE_PIXELS];   // each pair's weighted decode, by tap and pixel
 shared vec3 tile_rgb[TILE_PIXELS];
 
-// Texel (x, y) covers [x, x + 1) x [y, y + 1) of st, wrapped (as neural_btf_surface.glsl).
-uint texel_at(ivec2 xy, uvec2 grid) {
-  ivec2 g = ivec2(grid);
-  ivec2 w = ((xy % g) + g) % g;
-  return uint(w.y) * grid.x + uint(w.x);
-}
-uint btf_tap(vec2 st, uvec2 grid, bool bilinear, uint corner, out float weight) {
-  if (!bilinear) {
-    weight = 1.0;
-    return texel_at(ivec2(floor(st)), grid);
-  }
-  vec2 p = st - 0.5;
-  ivec2 i0 = ivec2(floor(p));
-  vec2 f = p - vec2(i0);
-  ivec2 o = ivec2(int(corner & 1u), int(corner >> 1));
-  vec2 w2 = mix(1.0 - f, f, vec2(o));
-  weight = w2.x * w2.y;
-  return texel_at(i0 + o, grid);
-}
+#include "btf_taps.glsl"
 
 // What term 0 (the key light) or 1 (the ambient) of a pixel's decodes is weighted by.
 vec3 term_weight(uint term, ivec2 px) {
