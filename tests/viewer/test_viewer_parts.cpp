@@ -96,6 +96,10 @@ TEST_CASE("a bad script line is an error naming the file, the line and the fault
   CHECK(error_of("zoom -2\n") == "session.txt:1: zoom factor must be > 0");
   CHECK(error_of("resize 0 10\n") == "session.txt:1: resize needs sizes within 1..16384");
   CHECK(error_of("ui maybe\n") == "session.txt:1: ui takes on or off");
+  CHECK(error_of("budget 0\n") == "session.txt:1: budget must be a positive number of milliseconds");
+  CHECK(error_of("budget -5\n") == "session.txt:1: budget must be a positive number of milliseconds");
+  CHECK(error_of("budget fast\n") == "session.txt:1: 'budget' expects numbers, got 'fast': budget MILLISECONDS");
+  CHECK(error_of("budget\n") == "session.txt:1: 'budget' takes 1 argument(s): budget MILLISECONDS");
   CHECK(error_of("knob skin lut.range full\n") ==
         "session.txt:1: knob value 'full' is not JSON (numbers, true/false, or \"quoted\" text)");
 }

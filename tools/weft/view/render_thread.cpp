@@ -46,6 +46,12 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
     std::shared_ptr<const scene::Scene> source;
     scene::Scene scene;  // the thread's copy; only the camera changes between versions
     bool renew = false;
+    auto post = [&shared](RenderResult result) {
+      std::lock_guard lock(shared->mutex);
+      shared->result = std::move(result);
+      shared->busy = false;
+      shared->progress.clear();
+    };
     while (true) {
       RenderJob job;
       {
@@ -63,10 +69,7 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
         made.reset();
         auto fresh = renderer::Renderer::create(*owned);
         if (!fresh) {
-          RenderResult failed{.id = job.id, .moving = job.moving, .reference = job.reference, .error = fresh.error().what()};
-          std::lock_guard lock(shared->mutex);
-          shared->result = std::move(failed);
-          shared->busy = false;
+          post({.id = job.id, .moving = job.moving, .reference = job.reference, .error = fresh.error().what()});
           continue;
         }
         made = std::make_shared<renderer::Renderer>(std::move(*fresh));
@@ -99,24 +102,16 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
         } else {
           result.error = fitted.error().what();
         }
-        std::lock_guard lock(shared->mutex);
-        shared->result = std::move(result);
-        shared->busy = false;
-        shared->progress.clear();
-        continue;
-      }
-      auto frame = made->render(scene, options);
-      result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-      if (frame) {
+      } else if (auto frame = made->render(scene, options); frame) {
+        result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
         result.frame = std::move(*frame);
         if (job.describe)
           if (auto report = made->describe(scene, options)) result.graph = std::move(*report);
       } else {
+        result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
         result.error = frame.error().what();
       }
-      std::lock_guard lock(shared->mutex);
-      shared->result = std::move(result);
-      shared->busy = false;
+      post(std::move(result));
     }
     made.reset();  // the renderer's GPU objects go before their device
     (void)owned->queue().wait_idle();
