@@ -47,6 +47,7 @@ import weft.example.fur_resample;
 
 using namespace weft;
 using namespace weft::passes;
+using namespace weft::fur;
 namespace fs = std::filesystem;
 
 namespace {

@@ -21,6 +21,8 @@ import weft.image;
 
 namespace weft::passes {
 
+using namespace fur;
+
 struct FurFrame::State {
   gpu::Device* device = nullptr;
   FurFrameSettings settings;

@@ -111,7 +111,7 @@ int run(int argc, char** argv) {
     } else if (a == "--check") {
       check = true;
     } else if (a == "--write-synthetic" && i + 1 < argc) {
-      const auto img = passes::synthesize_fur_photo({.width = 256, .height = 256});
+      const auto img = fur::synthesize_fur_photo({.width = 256, .height = 256});
       if (auto ok = image::save_png(argv[++i], img); !ok) {
         std::fprintf(stderr, "%s\n", ok.error().what().c_str());
         return 1;
@@ -128,7 +128,7 @@ int run(int argc, char** argv) {
   if (photo.empty()) photo = first_existing({shared_data() / "fur" / "cream_long.jpg"});
   if (photo.empty() || check) {
     photo = out / "synthetic_fur.png";
-    if (auto ok = image::save_png(photo, passes::synthesize_fur_photo({.width = 256, .height = 256})); !ok) {
+    if (auto ok = image::save_png(photo, fur::synthesize_fur_photo({.width = 256, .height = 256})); !ok) {
       std::fprintf(stderr, "%s\n", ok.error().what().c_str());
       return 1;
     }

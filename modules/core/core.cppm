@@ -3,6 +3,7 @@
 // file writes. Nothing
 // here knows about GPUs, graphs or scenes.
 module;
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -119,6 +120,32 @@ inline std::uint64_t hash_bytes(std::span<const std::byte> data) {
 }
 inline std::string hex64(std::uint64_t v) { return fmt::format("{:016x}", v); }
 
+// ---- enum names ------------------------------------------------------------------------
+// An enum's names in one table, so printing and parsing it cannot disagree:
+//   constexpr EnumNames<Weave, 3> weave_names{{{Weave::Plain, "plain"}, {Weave::Twill, "twill"}, ...}};
+//   to_string(w) = enum_name(weave_names, w);  parse = enum_from_name(weave_names, text, "weave")
+template <class Enum, std::size_t N>
+using EnumNames = std::array<std::pair<Enum, std::string_view>, N>;
+
+template <class Enum, std::size_t N>
+constexpr std::string_view enum_name(const EnumNames<Enum, N>& names, Enum value) {
+  for (const auto& [v, name] : names)
+    if (v == value) return name;
+  return "?";
+}
+
+// InvalidArgument naming `what`, the text and the choices: "weave 'silk' is not one of plain, twill, knit".
+template <class Enum, std::size_t N>
+Result<Enum> enum_from_name(const EnumNames<Enum, N>& names, std::string_view text, std::string_view what) {
+  std::string choices;
+  for (const auto& [v, name] : names) {
+    if (name == text) return v;
+    choices += choices.empty() ? "" : ", ";
+    choices += name;
+  }
+  return fail(ErrorKind::InvalidArgument, "{} '{}' is not one of {}", what, text, choices);
+}
+
 // ---- binary files --------------------------------------------------------------------
 // weft's binary files (.wbtf, .wssdf) lay little-endian values end to end. Their encoders
 // check that the host is little-endian, so values are copied as they lie in memory.
@@ -170,6 +197,20 @@ class BinaryReader {
   std::string_view source_, section_;
   std::size_t at_ = 0;
 };
+
+// The start every weft binary file shares: an 8-byte magic, a u32 version, and a header of
+// header_bytes in all. Checked before the header is read, in this order, so the message says
+// the most useful thing: not the magic -> Parse "not a weft <kind> file (the magic '<magic>' is
+// missing)"; another version -> Unsupported, naming both; cut short -> Parse, naming the sizes.
+// A prefix of the magic counts as truncated, not as another kind of file.
+struct BinaryFileHeader {
+  std::string_view magic;  // 8 characters
+  std::string_view kind;   // "neural BTF", "SSDF"
+  std::uint32_t version = 0;
+  std::size_t header_bytes = 0;
+};
+[[nodiscard]] Result<void> check_file_header(std::span<const std::byte> bytes, std::string_view source,
+                                             const BinaryFileHeader& expected);
 
 // ---- files ---------------------------------------------------------------------------
 // Writes `parts` end to end as `path`, atomically (files.cpp): a temporary unique to the

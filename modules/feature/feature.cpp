@@ -1,6 +1,8 @@
 module;
 #include <cstdint>
 #include <expected>
+#include <span>
+#include <string>
 #include <string_view>
 #include <vector>
 module weft.feature;
@@ -48,6 +50,14 @@ frame::MeshData to_mesh_data(const scene::Mesh& mesh) {
     if (i < mesh.curvature.size()) v.curvature = mesh.curvature[i];
   }
   return out;
+}
+
+Result<void> join_problems(std::span<const std::string> problems) {
+  if (problems.empty()) return {};
+  std::string message = problems.front();
+  for (std::size_t i = 1; i < problems.size(); ++i)
+    if (message.find(problems[i]) == std::string::npos) message += "\n" + problems[i];
+  return std::unexpected(Error{ErrorKind::Parse, std::move(message)});
 }
 
 }  // namespace weft

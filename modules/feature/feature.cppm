@@ -7,6 +7,8 @@
 module;
 #include <cstdint>
 #include <expected>
+#include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <span>
@@ -57,6 +59,35 @@ class FeaturePass {
 
 using FeatureFactory = Result<std::unique_ptr<FeaturePass>> (*)(gpu::Device& device);
 
+// Errors gathered while preparing a frame (one per bad material) as one Parse error, a line
+// each, repeats dropped; success when there are none.
+Result<void> join_problems(std::span<const std::string> problems);
+
+// A FeaturePass's prepare() loop: each scene material its objects use is resolved once, with
+// `resolve(const scene::Material&) -> Result<M>`, and kept in `materials` in first-use order;
+// then `visit(object_index, slot)` sees each object of frame.objects whose material resolved,
+// with that material's index in `materials`. A material that fails skips its objects, and
+// every failure comes back at the end, one line each (so a scene's every bad material is
+// named at once).
+template <class M, class Resolve, class Visit>
+Result<void> resolve_materials(const FeatureFrame& frame, std::vector<M>& materials, Resolve&& resolve, Visit&& visit) {
+  constexpr std::uint32_t failed = ~0u;
+  std::map<std::uint32_t, std::uint32_t> slot_of;  // scene material -> index in `materials`
+  std::vector<std::string> problems;
+  for (const std::uint32_t object_index : frame.objects) {
+    const std::uint32_t material_index = frame.scene.objects.at(object_index).material;
+    auto slot = slot_of.find(material_index);
+    if (slot == slot_of.end()) {
+      auto resolved = resolve(frame.scene.materials.at(material_index));
+      if (!resolved) problems.push_back(resolved.error().message);
+      slot = slot_of.emplace(material_index, resolved ? std::uint32_t(materials.size()) : failed).first;
+      if (resolved) materials.push_back(std::move(*resolved));
+    }
+    if (slot->second != failed) visit(object_index, slot->second);
+  }
+  return join_problems(problems);
+}
+
 // ---- knobs: the one table of a feature's quality settings ---------------------------------
 
 enum class KnobKind : std::uint8_t { Integer, Number, Boolean, Choice };
@@ -78,6 +109,8 @@ Knob integer_knob(std::string name, double min, double max, std::vector<nlohmann
 Knob number_knob(std::string name, double min, double max, std::vector<nlohmann::json> sweep, std::string meaning);
 Knob boolean_knob(std::string name, std::string meaning);
 Knob choice_knob(std::string name, std::vector<std::string> choices, std::string meaning);
+// The knob with the bounds the stability sweep renders instead of its range (unset: the range).
+Knob with_extremes(Knob knob, std::optional<double> extreme_min, std::optional<double> extreme_max);
 
 // The knob called `name` of a table; nullptr when there is none.
 const Knob* find_knob(std::span<const Knob> knobs, std::string_view name);
@@ -88,6 +121,24 @@ scene::Range knob_range(const Knob& knob);
 std::int64_t read_integer_knob(scene::JsonReader& reader, const Knob& knob, std::int64_t fallback);
 double read_number_knob(scene::JsonReader& reader, const Knob& knob, double fallback);
 std::string read_choice_knob(scene::JsonReader& reader, const Knob& knob, std::string fallback);
+
+// ---- materials ----------------------------------------------------------------------------
+
+// Reads a feature material's fields: `read` gets a JsonReader on material.params at the
+// material's JSON path ("$.materials.<name>" where the scene gave none), paths resolved
+// against material.base_dir, and runs only when the params are an object; then fields nobody
+// read are errors. Every problem is in one Parse error headed "<type> material '<name>'" that
+// names each bad field's path; an exception thrown by `read` is a Parse error too.
+Result<void> read_material_fields(const scene::Material& material, std::string_view type,
+                                  const std::function<void(scene::JsonReader& reader)>& read);
+
+// A descriptor's check_material made from the feature's material parser
+// (Result<M> parse(const scene::Material&, Quality)): parse, keep the error, drop the value.
+template <auto Parse>
+Result<void> check_by_parsing(const scene::Material& material) {
+  if (auto parsed = Parse(material, Quality::Medium); !parsed) return std::unexpected(std::move(parsed.error()));
+  return {};
+}
 
 // What a setting of the knobs costs on the x axis of the trade-off plot.
 enum class CostAxis : std::uint8_t {
@@ -104,10 +155,11 @@ struct FeatureDescriptor {
   // `weft tradeoff --feature` name ("shell_fur"). Older names keep working as aliases ("fur").
   std::string name;
   std::vector<std::string> aliases;
-  std::string summary;                 // one line: what the feature draws
   std::string doc;                     // where it is documented: "docs/fur.md"
+  std::string summary;                 // one line: what the feature draws
   // Checks a material of this type (its fields in material.params at material.json_path):
   // one Parse error naming every bad field's JSON path. Quality fills knobs left unset.
+  // check_by_parsing<&parse_my_material> makes it from the feature's parser.
   Result<void> (*check_material)(const scene::Material& material) = nullptr;
   FeatureFactory create = nullptr;     // the FeaturePass the renderer adds for this type
   std::vector<std::string> passes;     // its graph passes, for their GPU times

@@ -3,6 +3,7 @@
 module;
 #include <cstdint>
 #include <initializer_list>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -28,6 +29,12 @@ Knob boolean_knob(std::string name, std::string meaning) {
 Knob choice_knob(std::string name, std::vector<std::string> choices, std::string meaning) {
   std::vector<json> sweep(choices.begin(), choices.end());
   return {std::move(name), KnobKind::Choice, 0, 0, std::move(choices), std::move(sweep), std::move(meaning)};
+}
+
+Knob with_extremes(Knob knob, std::optional<double> extreme_min, std::optional<double> extreme_max) {
+  knob.extreme_min = extreme_min;
+  knob.extreme_max = extreme_max;
+  return knob;
 }
 
 const Knob* find_knob(std::span<const Knob> knobs, std::string_view name) {

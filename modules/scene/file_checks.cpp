@@ -321,6 +321,10 @@ Result<void> check_off(const std::filesystem::path& path) {
     counts[c] = std::stoull(std::string(word));
     if (counts[c++] > bytes->size()) return bad(fmt::format("the {} count is larger than the file could hold", what));
   }
+  // An empty mesh is of no use to a scene, and OpenMesh's reader never returns from one whose
+  // counts share the keyword's line with nothing after it ("OFF 0 0 0\n": found by fuzz_off).
+  if (counts[0] == 0 || counts[1] == 0)
+    return bad(fmt::format("the mesh is empty: {} vertices, {} faces", counts[0], counts[1]));
 
   // The body, line by line: OpenMesh reads it token by token and trusts every count in it
   // (a face "6-4" makes the next face's corner count -4, read four billion times).

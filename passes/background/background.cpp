@@ -5,9 +5,6 @@ module;
 #include <weft/try.h>
 #include "weft_pass_background_shaders.h"
 module weft.base_pass.background;
-import weft.core;
-import weft.gpu;
-import weft.graph;
 import weft.frame;
 
 namespace weft::passes {
@@ -20,31 +17,25 @@ struct BackgroundPass::State {
 };
 
 Result<BackgroundPass> BackgroundPass::create(gpu::Device& device) {
-  auto vs = device.create_shader_module({.label = "fullscreen.vert", .stage = gpu::ShaderStage::Vertex, .spirv = frame::fullscreen_vertex_spirv()});
-  if (!vs) return std::unexpected(vs.error());
-  auto fs = device.create_shader_module({.label = "background.frag", .stage = gpu::ShaderStage::Fragment, .spirv = shaders::background_frag()});
-  if (!fs) return std::unexpected(fs.error());
-  auto bind_layout = device.create_bind_group_layout(
-      {.label = "background",
-       .entries = {{0, gpu::BindingType::UniformBuffer, gpu::ShaderStage::Fragment},
-                   {1, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}});
-  if (!bind_layout) return std::unexpected(bind_layout.error());
-  auto layout = device.create_pipeline_layout({.label = "background", .bind_group_layouts = {&*bind_layout}});
-  if (!layout) return std::unexpected(layout.error());
-  auto pipeline = device.create_render_pipeline(
-      {.label = "background",
-       .layout = &*layout,
-       .vertex = &*vs,
-       .fragment = &*fs,
-       .color_targets = {{gpu::Format::RGBA16Float}},
-       .depth_stencil = gpu::DepthStencilState{.format = gpu::Format::Depth32Float, .depth_write = false,
-                                               .compare = gpu::CompareFunction::LessEqual}});
-  if (!pipeline) return std::unexpected(pipeline.error());
-  auto sampler = device.create_sampler({.label = "environment", .address_mode = gpu::AddressMode::Repeat});
-  if (!sampler) return std::unexpected(sampler.error());
+  WEFT_TRY(auto vs, device.create_shader_module({.label = "fullscreen.vert", .stage = gpu::ShaderStage::Vertex, .spirv = frame::fullscreen_vertex_spirv()}));
+  WEFT_TRY(auto fs, device.create_shader_module({.label = "background.frag", .stage = gpu::ShaderStage::Fragment, .spirv = shaders::background_frag()}));
+  WEFT_TRY(auto bind_layout, device.create_bind_group_layout(
+        {.label = "background",
+         .entries = {{0, gpu::BindingType::UniformBuffer, gpu::ShaderStage::Fragment},
+                     {1, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}}));
+  WEFT_TRY(auto layout, device.create_pipeline_layout({.label = "background", .bind_group_layouts = {&bind_layout}}));
+  WEFT_TRY(auto pipeline, device.create_render_pipeline(
+        {.label = "background",
+         .layout = &layout,
+         .vertex = &vs,
+         .fragment = &fs,
+         .color_targets = {{gpu::Format::RGBA16Float}},
+         .depth_stencil = gpu::DepthStencilState{.format = gpu::Format::Depth32Float, .depth_write = false,
+                                                 .compare = gpu::CompareFunction::LessEqual}}));
+  WEFT_TRY(auto sampler, device.create_sampler({.label = "environment", .address_mode = gpu::AddressMode::Repeat}));
   BackgroundPass pass;
-  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*layout), std::move(*pipeline),
-                                              std::move(*sampler)});
+  pass.state_ = std::make_shared<State>(State{std::move(bind_layout), std::move(layout), std::move(pipeline),
+                                              std::move(sampler)});
   return pass;
 }
 

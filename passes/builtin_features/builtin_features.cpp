@@ -2,7 +2,6 @@ module;
 #include <expected>
 #include <weft/try.h>
 module weft.builtin_features;
-import weft.core;
 import weft.feature;
 import weft.pass.shell_fur;
 import weft.pass.skin_sss;

@@ -8,11 +8,8 @@ module;
 #include <utility>
 #include <vector>
 #include "weft_pass_forward_shaders.h"
+#include <weft/try.h>
 module weft.base_pass.forward;
-import weft.core;
-import weft.gpu;
-import weft.graph;
-import weft.frame;
 
 namespace weft::passes {
 
@@ -41,56 +38,45 @@ Result<gpu::Texture> one_texel(gpu::Device& device, const char* label, std::arra
   auto t = device.create_texture({.label = label, .size = {1, 1, 1}, .format = gpu::Format::RGBA8Unorm,
                                   .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
   if (!t) return t;
-  if (auto ok = device.queue().write_texture(*t, std::as_bytes(std::span(texel))); !ok) return std::unexpected(ok.error());
+  WEFT_TRY_VOID(device.queue().write_texture(*t, std::as_bytes(std::span(texel))));
   return t;
 }
 }  // namespace
 
 Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
-  auto vs = device.create_shader_module({.label = "forward.vert", .stage = gpu::ShaderStage::Vertex, .spirv = shaders::forward_vert()});
-  if (!vs) return std::unexpected(vs.error());
-  auto fs = device.create_shader_module({.label = "forward.frag", .stage = gpu::ShaderStage::Fragment, .spirv = shaders::forward_frag()});
-  if (!fs) return std::unexpected(fs.error());
-  auto bind_layout = device.create_bind_group_layout(
-      {.label = "forward",
-       .entries = {{0, gpu::BindingType::UniformBuffer, gpu::ShaderStage::Vertex | gpu::ShaderStage::Fragment},
-                   {1, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
-                   {2, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}});
-  if (!bind_layout) return std::unexpected(bind_layout.error());
-  auto material_layout = device.create_bind_group_layout(
-      {.label = "forward-material",
-       .entries = {{0, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
-                   {1, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
-                   {2, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
-                   {3, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
-                   {4, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}});
-  if (!material_layout) return std::unexpected(material_layout.error());
-  auto white = one_texel(device, "white", {255, 255, 255, 255});
-  if (!white) return std::unexpected(white.error());
-  auto flat_normal = one_texel(device, "flat-normal", {128, 128, 255, 255});
-  if (!flat_normal) return std::unexpected(flat_normal.error());
-  auto layout = device.create_pipeline_layout({.label = "forward",
-                                               .bind_group_layouts = {&*bind_layout, &*material_layout},
-                                               .push_constant_size = sizeof(DrawConstants)});
-  if (!layout) return std::unexpected(layout.error());
+  WEFT_TRY(auto vs, device.create_shader_module({.label = "forward.vert", .stage = gpu::ShaderStage::Vertex, .spirv = shaders::forward_vert()}));
+  WEFT_TRY(auto fs, device.create_shader_module({.label = "forward.frag", .stage = gpu::ShaderStage::Fragment, .spirv = shaders::forward_frag()}));
+  WEFT_TRY(auto bind_layout, device.create_bind_group_layout(
+        {.label = "forward",
+         .entries = {{0, gpu::BindingType::UniformBuffer, gpu::ShaderStage::Vertex | gpu::ShaderStage::Fragment},
+                     {1, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
+                     {2, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}}));
+  WEFT_TRY(auto material_layout, device.create_bind_group_layout(
+        {.label = "forward-material",
+         .entries = {{0, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
+                     {1, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
+                     {2, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
+                     {3, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
+                     {4, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}}));
+  WEFT_TRY(auto white, one_texel(device, "white", {255, 255, 255, 255}));
+  WEFT_TRY(auto flat_normal, one_texel(device, "flat-normal", {128, 128, 255, 255}));
+  WEFT_TRY(auto layout, device.create_pipeline_layout({.label = "forward",
+                                                 .bind_group_layouts = {&bind_layout, &material_layout},
+                                                 .push_constant_size = sizeof(DrawConstants)}));
   // weft's vertex layout plus the second UV set at location 5, which only this pass reads (an
   // attribute a shader does not consume is a validation warning, so the others go without).
   gpu::VertexBufferLayout vertices = frame::vertex_layout();
   vertices.attributes.push_back({gpu::VertexFormat::Float32x2, offsetof(frame::Vertex, uv1), 5});
-  auto pipeline = frame::create_lit_mesh_pipeline(device, "forward", *layout, *vs, *fs, scene_color_format,
-                                                  scene_depth_format, std::move(vertices));
-  if (!pipeline) return std::unexpected(pipeline.error());
-  auto shadow_sampler = frame::create_shadow_compare_sampler(device, "shadow-compare");
-  if (!shadow_sampler) return std::unexpected(shadow_sampler.error());
-  auto environment_sampler = device.create_sampler({.label = "environment", .address_mode = gpu::AddressMode::Repeat});
-  if (!environment_sampler) return std::unexpected(environment_sampler.error());
-  auto material_sampler = device.create_sampler({.label = "material", .address_mode = gpu::AddressMode::Repeat});
-  if (!material_sampler) return std::unexpected(material_sampler.error());
+  WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipeline(device, "forward", layout, vs, fs, scene_color_format,
+                                                    scene_depth_format, std::move(vertices)));
+  WEFT_TRY(auto shadow_sampler, frame::create_shadow_compare_sampler(device, "shadow-compare"));
+  WEFT_TRY(auto environment_sampler, device.create_sampler({.label = "environment", .address_mode = gpu::AddressMode::Repeat}));
+  WEFT_TRY(auto material_sampler, device.create_sampler({.label = "material", .address_mode = gpu::AddressMode::Repeat}));
   ForwardPass pass;
-  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*material_layout), std::move(*white),
-                                              std::move(*flat_normal), std::move(*layout), std::move(*pipeline),
-                                              std::move(*shadow_sampler), std::move(*environment_sampler),
-                                              std::move(*material_sampler)});
+  pass.state_ = std::make_shared<State>(State{std::move(bind_layout), std::move(material_layout), std::move(white),
+                                              std::move(flat_normal), std::move(layout), std::move(pipeline),
+                                              std::move(shadow_sampler), std::move(environment_sampler),
+                                              std::move(material_sampler)});
   return pass;
 }
 

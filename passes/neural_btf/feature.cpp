@@ -16,20 +16,18 @@ module;
 #include <nlohmann/json.hpp>
 #include <weft/try.h>
 module weft.pass.neural_btf;
-import weft.core;
-import weft.gpu;
-import weft.graph;
-import weft.frame;
-import weft.scene;
-import weft.feature;
-import weft.btf;
-import weft.btf.model;
 
 namespace weft::passes {
 namespace {
 
 class NeuralBtfFeature final : public FeaturePass {
  public:
+  // The factory the descriptor names: the graph pass first, then the feature around it.
+  static Result<std::unique_ptr<FeaturePass>> create(gpu::Device& device) {
+    WEFT_TRY(auto pass, NeuralBTFMaterial::create(device));
+    return std::make_unique<NeuralBtfFeature>(device, std::move(pass));
+  }
+
   NeuralBtfFeature(gpu::Device& device, NeuralBTFMaterial pass) : device_(&device), pass_(std::move(pass)) {}
 
   [[nodiscard]] std::string_view name() const override { return "neural_btf"; }
@@ -38,33 +36,17 @@ class NeuralBtfFeature final : public FeaturePass {
     warnings_.clear();
     draws_.clear();
     frame_materials_.clear();
-    std::map<std::uint32_t, std::uint32_t> slot_of;  // scene material -> frame material slot
-    std::vector<std::string> problems;
-    for (std::uint32_t object_index : frame.objects) {
-      const scene::Object& object = frame.scene.objects.at(object_index);
-      auto slot = slot_of.find(object.material);
-      if (slot == slot_of.end()) {
-        auto material = material_for(frame.scene.materials.at(object.material), frame.quality);
-        if (!material) {
-          problems.push_back(material.error().message);
-          slot_of[object.material] = ~0u;
-          continue;
-        }
-        slot = slot_of.emplace(object.material, std::uint32_t(frame_materials_.size())).first;
-        frame_materials_.push_back(*material);
-      }
-      if (slot->second == ~0u) continue;
-      const scene::Mesh& mesh = frame.scene.meshes.at(object.mesh);
-      if (!mesh.has_uvs())
-        warnings_.push_back(weft::format("neural_btf object '{}': mesh '{}' has no UVs, so it shows one texel",
-                                         object.name, mesh.name));
-      draws_.push_back({frame.meshes[object.mesh], object.transform, slot->second});
-    }
-    if (!problems.empty()) {
-      std::string message = problems.front();
-      for (std::size_t i = 1; i < problems.size(); ++i) message += "\n" + problems[i];
-      return std::unexpected(Error{ErrorKind::Parse, std::move(message)});
-    }
+    WEFT_TRY_VOID(resolve_materials(
+        frame, frame_materials_,
+        [&](const scene::Material& material) { return material_for(material, frame.quality); },
+        [&](std::uint32_t object_index, std::uint32_t slot) {
+          const scene::Object& object = frame.scene.objects.at(object_index);
+          const scene::Mesh& mesh = frame.scene.meshes.at(object.mesh);
+          if (!mesh.has_uvs())
+            warnings_.push_back(weft::format("neural_btf object '{}': mesh '{}' has no UVs, so it shows one texel",
+                                             object.name, mesh.name));
+          draws_.push_back({frame.meshes[object.mesh], object.transform, slot});
+        }));
     if (frame.uniforms.light_color == vec4(0.0f))
       warnings_.push_back("neural_btf materials without a directional (key) light show only their ambient term");
     return {};
@@ -78,10 +60,9 @@ class NeuralBtfFeature final : public FeaturePass {
 
  private:
   Result<std::shared_ptr<NeuralBtfGpuMaterial>> material_for(const scene::Material& material, Quality quality) {
-    auto parsed = btf::parse_neural_btf_material(material, quality);
-    if (!parsed) return std::unexpected(parsed.error());
-    if (parsed->mode == btf::BtfMode::Reference) {
-      auto reference = reference_for(*parsed);
+    WEFT_TRY(auto parsed, btf::parse_neural_btf_material(material, quality));
+    if (parsed.mode == btf::BtfMode::Reference) {
+      auto reference = reference_for(parsed);
       if (!reference)
         return with_context(weft::format("neural_btf material '{}' ({}.btf)", material.name, material.json_path),
                             reference.error());
@@ -90,12 +71,11 @@ class NeuralBtfFeature final : public FeaturePass {
       h.value(std::uint8_t(quality)).value(*reference);
       const std::uint64_t key = h.digest();
       if (auto it = materials_.find(key); it != materials_.end()) return it->second;
-      auto gpu_material = pass_.create_material(*device_, *parsed, **reference);
-      if (!gpu_material) return std::unexpected(gpu_material.error());
-      materials_.emplace(key, *gpu_material);
-      return *gpu_material;
+      WEFT_TRY(auto gpu_material, pass_.create_material(*device_, parsed, **reference));
+      materials_.emplace(key, gpu_material);
+      return gpu_material;
     }
-    auto model = model_for(parsed->model);
+    auto model = model_for(parsed.model);
     if (!model) return with_context(weft::format("neural_btf material '{}' ({}.model)", material.name, material.json_path),
                                     model.error());
     Hasher h;
@@ -103,10 +83,9 @@ class NeuralBtfFeature final : public FeaturePass {
     h.value(std::uint8_t(quality)).value(*model);
     const std::uint64_t key = h.digest();
     if (auto it = materials_.find(key); it != materials_.end()) return it->second;
-    auto gpu_material = pass_.create_material(*device_, *parsed, **model);
-    if (!gpu_material) return std::unexpected(gpu_material.error());
-    materials_.emplace(key, *gpu_material);
-    return *gpu_material;
+    WEFT_TRY(auto gpu_material, pass_.create_material(*device_, parsed, **model));
+    materials_.emplace(key, gpu_material);
+    return gpu_material;
   }
 
   // The model of a .wbtf file on the GPU, loaded again only when the file changes.
@@ -118,12 +97,11 @@ class NeuralBtfFeature final : public FeaturePass {
     h.str(path.string()).value(stamp.time_since_epoch().count()).value(ec ? 0 : size);
     const std::uint64_t key = h.digest();
     if (auto it = models_.find(key); it != models_.end()) return it->second.get();
-    auto model = btf::load_wbtf(path);
-    if (!model) return std::unexpected(model.error());
+    WEFT_TRY(auto model, btf::load_wbtf(path));
     log::info(weft::format("neural BTF '{}': {} x {} texels, {} latents{}, decoder {} parameters", path.filename().string(),
-                           model->width, model->height, model->latent_count(), model->clustered() ? " (clustered)" : "",
-                           model->decoder.parameter_count()));
-    auto buffer = upload_model(*device_, *model, "neural_btf_" + path.filename().string());
+                           model.width, model.height, model.latent_count(), model.clustered() ? " (clustered)" : "",
+                           model.decoder.parameter_count()));
+    auto buffer = upload_model(*device_, model, "neural_btf_" + path.filename().string());
     if (!buffer) return with_context(path.string(), buffer.error());
     return models_.emplace(key, std::make_unique<GpuBtfModel>(std::move(*buffer))).first->second.get();
   }
@@ -180,54 +158,35 @@ class NeuralBtfFeature final : public FeaturePass {
 
 }  // namespace
 
-namespace {
-
-Result<std::unique_ptr<FeaturePass>> create_feature(gpu::Device& device) {
-  WEFT_TRY(auto pass, NeuralBTFMaterial::create(device));
-  return std::make_unique<NeuralBtfFeature>(device, std::move(pass));
-}
-
-Result<void> check_material(const scene::Material& material) {
-  WEFT_TRY_VOID(btf::parse_neural_btf_material(material));
-  return {};
-}
-
-}  // namespace
-
 // The model's own knobs (clusters, latent size, fp16) are bake-time (weft bake btf) and
 // measured against the raw BTF by weft-bench-btf-train; here the shading knobs: decodes per
 // pixel. Quality: low = nearest, no ambient; medium = nearest + ambient; high and reference =
 // bilinear + ambient (docs/neural-btf.md).
 const FeatureDescriptor& neural_btf_feature() {
-  static const FeatureDescriptor feature = [] {
-    FeatureDescriptor d;
-    d.name = "neural_btf";
-    d.aliases = {"btf"};
-    d.summary = "measured fabrics: a neural BTF decoded per visible pixel as batched matrix products";
-    d.doc = "docs/neural-btf.md";
-    d.check_material = &check_material;
-    d.create = &create_feature;
-    // The default (batched) path's passes; a "decoder": "fragment" material draws in
-    // neural_btf_fragment instead, which the trade-off study's pass times then leave out.
-    d.passes = {"neural_btf", "neural_btf_decode", "neural_btf_resolve"};
-    d.knobs = {
-        choice_knob("filter", {"nearest", "bilinear"}, "texels decoded per light: 1, or 4 blended"),
-        boolean_knob("ambient", "one more decode (ω_i = n) times the environment's SH irradiance"),
-        boolean_knob("shadow", "the key light's shadow map (3x3 PCF)"),
-    };
-    d.preset_values = [](Quality q) -> nlohmann::json {
-      const auto p = btf::neural_btf_quality_preset(q);
-      return {{"filter", std::string(btf::to_string(p.filter))}, {"ambient", p.ambient}};
-    };
-    // The raw BTF the model compresses (the material's "btf"), sampled by the same fragment
-    // stage with every tap the material can make: the error is the model's and the knobs'.
-    d.reference = {{"mode", "reference"}, {"filter", "bilinear"}, {"ambient", true}, {"shadow", true}};
-    d.reference_why = "the raw BTF (the material's \"btf\") sampled as sample_reference samples it, bilinear texels, "
-                      "ambient and shadow: the same pass with the data in place of the decoder";
-    d.cost = CostAxis::Frame;
-    d.grids = {{"filter", "ambient"}};
-    return d;
-  }();
+  static const FeatureDescriptor feature{
+      .name = "neural_btf", .aliases = {"btf"}, .doc = "docs/neural-btf.md",
+      .summary = "measured fabrics: a neural BTF decoded per visible pixel as batched matrix products",
+      .check_material = check_by_parsing<&btf::parse_neural_btf_material>, .create = &NeuralBtfFeature::create,
+      // The default (batched) path's passes; a "decoder": "fragment" material draws in
+      // neural_btf_fragment instead, which the trade-off study's pass times then leave out.
+      .passes = {"neural_btf", "neural_btf_decode", "neural_btf_resolve"},
+      .knobs = {
+          choice_knob("filter", {"nearest", "bilinear"}, "texels decoded per light: 1, or 4 blended"),
+          boolean_knob("ambient", "one more decode (ω_i = n) times the environment's SH irradiance"),
+          boolean_knob("shadow", "the key light's shadow map (3x3 PCF)"),
+      },
+      .preset_values = [](Quality q) -> nlohmann::json {
+        const auto p = btf::neural_btf_quality_preset(q);
+        return {{"filter", std::string(btf::to_string(p.filter))}, {"ambient", p.ambient}};
+      },
+      // The raw BTF the model compresses (the material's "btf"), sampled by the same fragment
+      // stage with every tap the material can make: the error is the model's and the knobs'.
+      .reference = {{"mode", "reference"}, {"filter", "bilinear"}, {"ambient", true}, {"shadow", true}},
+      .reference_why = "the raw BTF (the material's \"btf\") sampled as sample_reference samples it, bilinear texels, "
+                        "ambient and shadow: the same pass with the data in place of the decoder",
+      .cost = CostAxis::Frame,
+      .grids = {{"filter", "ambient"}},
+  };
   return feature;
 }
 

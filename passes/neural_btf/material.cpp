@@ -10,11 +10,9 @@ module;
 #include <string>
 #include <string_view>
 #include <glm/glm.hpp>
+#include <weft/try.h>
 #include <nlohmann/json.hpp>
 module weft.pass.neural_btf;
-import weft.core;
-import weft.scene;
-import weft.feature;
 
 namespace weft::btf {
 
@@ -66,56 +64,45 @@ NeuralBtfQualityPreset neural_btf_quality_preset(Quality quality) {
 }
 
 Result<NeuralBtfParams> parse_neural_btf_material(const scene::Material& material, Quality quality) {
-  try {
-    NeuralBtfParams m;
-    const NeuralBtfQualityPreset q = neural_btf_quality_preset(quality);
-    m.ambient = q.ambient;
-    m.filter = q.filter;
-    scene::JsonErrors errors;
-    const std::string path = material.json_path.empty() ? weft::format("$.materials.{}", material.name) : material.json_path;
-    scene::JsonReader r(material.params, path, errors, material.base_dir);
-    if (!r.is_object()) {
-      r.error(weft::format("a neural_btf material is an object, got {}", scene::json_type_name(material.params)));
+  NeuralBtfParams m;
+  const NeuralBtfQualityPreset q = neural_btf_quality_preset(quality);
+  m.ambient = q.ambient;
+  m.filter = q.filter;
+  WEFT_TRY_VOID(read_material_fields(material, "neural_btf", [&](scene::JsonReader& r) {
+    const std::string mode = r.string("mode", "neural", {"neural", "reference"});
+    m.mode = mode == "reference" ? BtfMode::Reference : BtfMode::Neural;
+    if (m.mode == BtfMode::Neural) r.require("model");
+    m.model = r.path("model");
+    if (m.mode == BtfMode::Reference) r.require("btf");
+    if (const nlohmann::json* b = r.value("btf"); b && b->is_string() && b->get<std::string>().starts_with("synthetic")) {
+      m.btf_synthetic = parse_synthetic_source(b->get<std::string>());
+      if (!m.btf_synthetic)
+        r.error_at("btf", weft::format("'{}' is not synthetic:<plain|twill|knit>:<W>x<H>[:<seed>] (sides 1..4096)",
+                                       b->get<std::string>()));
     } else {
-      const std::string mode = r.string("mode", "neural", {"neural", "reference"});
-      m.mode = mode == "reference" ? BtfMode::Reference : BtfMode::Neural;
-      if (m.mode == BtfMode::Neural) r.require("model");
-      m.model = r.path("model");
-      if (m.mode == BtfMode::Reference) r.require("btf");
-      if (const nlohmann::json* b = r.value("btf"); b && b->is_string() && b->get<std::string>().starts_with("synthetic")) {
-        m.btf_synthetic = parse_synthetic_source(b->get<std::string>());
-        if (!m.btf_synthetic)
-          r.error_at("btf", weft::format("'{}' is not synthetic:<plain|twill|knit>:<W>x<H>[:<seed>] (sides 1..4096)",
-                                         b->get<std::string>()));
-      } else {
-        m.btf = r.path("btf");
-      }
-      const scene::Range tiling{.min = 0, .max = 1e6, .min_exclusive = true};
-      if (const nlohmann::json* s = r.value("uv_scale"); s && s->is_number()) {
-        m.uv_scale = vec2(float(r.number("uv_scale", 1.0, tiling)));
-      } else {
-        m.uv_scale = r.vec2_of("uv_scale", m.uv_scale, tiling);
-      }
-      m.exposure = float(r.number("exposure", m.exposure, {.min = 0, .max = 1e6}));
-      m.tint = r.vec3_of("tint", m.tint, {.min = 0, .max = 1e6});
-      m.ambient = r.boolean("ambient", m.ambient);
-      m.filter = read_choice_knob(r, *find_knob(passes::neural_btf_feature().knobs, "filter"),
-                                  std::string(to_string(m.filter))) == "bilinear"
-                     ? TexelFilter::Bilinear
-                     : TexelFilter::Nearest;
-      m.shadow = r.boolean("shadow", m.shadow);
-      const std::string debug = r.string("debug_view", "none", {"none", "texel", "uv", "frame"});
-      for (BtfDebugView d : {BtfDebugView::None, BtfDebugView::Texel, BtfDebugView::Uv, BtfDebugView::Frame})
-        if (to_string(d) == debug) m.debug_view = d;
-      m.decoder = r.string("decoder", "batched", {"batched", "fragment"}) == "fragment" ? BtfDecoder::Fragment
-                                                                                      : BtfDecoder::Batched;
-      r.finish();
+      m.btf = r.path("btf");
     }
-    if (!errors.empty()) return std::unexpected(errors.to_error(weft::format("neural_btf material '{}'", material.name)));
-    return m;
-  } catch (const std::exception& e) {
-    return fail(ErrorKind::Parse, "neural_btf material '{}': {}", material.name, e.what());
-  }
+    const scene::Range tiling{.min = 0, .max = 1e6, .min_exclusive = true};
+    if (const nlohmann::json* s = r.value("uv_scale"); s && s->is_number()) {
+      m.uv_scale = vec2(float(r.number("uv_scale", 1.0, tiling)));
+    } else {
+      m.uv_scale = r.vec2_of("uv_scale", m.uv_scale, tiling);
+    }
+    m.exposure = float(r.number("exposure", m.exposure, {.min = 0, .max = 1e6}));
+    m.tint = r.vec3_of("tint", m.tint, {.min = 0, .max = 1e6});
+    m.ambient = r.boolean("ambient", m.ambient);
+    m.filter = read_choice_knob(r, *find_knob(passes::neural_btf_feature().knobs, "filter"),
+                                std::string(to_string(m.filter))) == "bilinear"
+                   ? TexelFilter::Bilinear
+                   : TexelFilter::Nearest;
+    m.shadow = r.boolean("shadow", m.shadow);
+    const std::string debug = r.string("debug_view", "none", {"none", "texel", "uv", "frame"});
+    for (BtfDebugView d : {BtfDebugView::None, BtfDebugView::Texel, BtfDebugView::Uv, BtfDebugView::Frame})
+      if (to_string(d) == debug) m.debug_view = d;
+    m.decoder = r.string("decoder", "batched", {"batched", "fragment"}) == "fragment" ? BtfDecoder::Fragment
+                                                                                    : BtfDecoder::Batched;
+  }));
+  return m;
 }
 
 }  // namespace weft::btf

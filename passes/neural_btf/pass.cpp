@@ -18,17 +18,10 @@ module;
 #include <weft/try.h>
 #include "weft_pass_neural_btf_shaders.h"
 module weft.pass.neural_btf;
-import weft.core;
-import weft.gpu;
-import weft.graph;
-import weft.frame;
-import weft.btf.model;
 
 namespace weft::passes {
 
 namespace {
-constexpr gpu::Format color_format = frame::scene_color_format;
-constexpr gpu::Format depth_format = frame::scene_depth_format;
 constexpr std::uint32_t kNone = 0xffffffffu;
 constexpr std::size_t kHeaderWords = 4 + 4 + 4 + 4 * kBtfMaxLayers;  // shape, offsets, scales, layers
 
@@ -45,7 +38,7 @@ enum : int { flag_ambient = 1, flag_bilinear = 2, flag_shadow = 4 };
 }  // namespace
 
 Result<std::vector<std::uint32_t>> pack_model(const btf::NeuralBtf& model) {
-  if (auto ok = btf::validate(model); !ok) return std::unexpected(ok.error());
+  WEFT_TRY_VOID(btf::validate(model));
   const auto& layers = model.decoder.layers;
   if (layers.size() > kBtfMaxLayers)
     return fail(ErrorKind::Unsupported, "neural BTF: the decoder has {} layers; the shader evaluates at most {}",
@@ -116,13 +109,11 @@ bool is_paper_shape(const btf::NeuralBtf& model) {
 
 Result<GpuBtfModel> upload_model(gpu::Device& device, const btf::NeuralBtf& model, std::string_view label,
                                  bool allow_unrolled) {
-  auto words = pack_model(model);
-  if (!words) return std::unexpected(words.error());
-  auto buffer = device.create_buffer_with_data({.label = std::string(label), .size = words->size() * 4,
-                                                .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
-                                               std::as_bytes(std::span(*words)));
-  if (!buffer) return std::unexpected(buffer.error());
-  return GpuBtfModel{std::move(*buffer), allow_unrolled && is_paper_shape(model), is_paper_shape(model)};
+  WEFT_TRY(auto words, pack_model(model));
+  WEFT_TRY(auto buffer, device.create_buffer_with_data({.label = std::string(label), .size = words.size() * 4,
+                                                  .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
+                                                 std::as_bytes(std::span(words))));
+  return GpuBtfModel{std::move(buffer), allow_unrolled && is_paper_shape(model), is_paper_shape(model)};
 }
 
 // ---- the decode kernel ----------------------------------------------------------------------
@@ -148,33 +139,28 @@ std::string_view to_string(DecodeVariant v) {
 Result<BtfDecodeKernel> BtfDecodeKernel::create(gpu::Device& device) {
   using gpu::BindingType;
   using gpu::ShaderStage;
-  auto cs = device.create_shader_module(
-      {.label = "btf_decode.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_comp()});
-  if (!cs) return std::unexpected(cs.error());
-  auto paper_cs = device.create_shader_module(
-      {.label = "btf_decode_paper.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_paper_comp()});
-  if (!paper_cs) return std::unexpected(paper_cs.error());
-  auto tiled_cs = device.create_shader_module(
-      {.label = "btf_decode_tiled.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_tiled_comp()});
-  if (!tiled_cs) return std::unexpected(tiled_cs.error());
-  auto layout = device.create_bind_group_layout({.label = "btf-decode",
-                                                 .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
-                                                             {1, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
-                                                             {2, BindingType::StorageBuffer, ShaderStage::Compute}}});
-  if (!layout) return std::unexpected(layout.error());
+  WEFT_TRY(auto cs, device.create_shader_module(
+        {.label = "btf_decode.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_comp()}));
+  WEFT_TRY(auto paper_cs, device.create_shader_module(
+        {.label = "btf_decode_paper.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_paper_comp()}));
+  WEFT_TRY(auto tiled_cs, device.create_shader_module(
+        {.label = "btf_decode_tiled.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_tiled_comp()}));
+  WEFT_TRY(auto layout, device.create_bind_group_layout({.label = "btf-decode",
+                                                   .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
+                                                               {1, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
+                                                               {2, BindingType::StorageBuffer, ShaderStage::Compute}}}));
   auto pipeline_layout =
-      device.create_pipeline_layout({.label = "btf-decode", .bind_group_layouts = {&*layout}, .push_constant_size = 4});
+      device.create_pipeline_layout({.label = "btf-decode", .bind_group_layouts = {&layout}, .push_constant_size = 4});
   if (!pipeline_layout) return std::unexpected(pipeline_layout.error());
-  auto pipeline = device.create_compute_pipeline({.label = "btf-decode", .layout = &*pipeline_layout, .module = &*cs});
-  if (!pipeline) return std::unexpected(pipeline.error());
+  WEFT_TRY(auto pipeline, device.create_compute_pipeline({.label = "btf-decode", .layout = &*pipeline_layout, .module = &cs}));
   auto paper_pipeline =
-      device.create_compute_pipeline({.label = "btf-decode-paper", .layout = &*pipeline_layout, .module = &*paper_cs});
+      device.create_compute_pipeline({.label = "btf-decode-paper", .layout = &*pipeline_layout, .module = &paper_cs});
   if (!paper_pipeline) return std::unexpected(paper_pipeline.error());
   auto tiled_pipeline =
-      device.create_compute_pipeline({.label = "btf-decode-tiled", .layout = &*pipeline_layout, .module = &*tiled_cs});
+      device.create_compute_pipeline({.label = "btf-decode-tiled", .layout = &*pipeline_layout, .module = &tiled_cs});
   if (!tiled_pipeline) return std::unexpected(tiled_pipeline.error());
   BtfDecodeKernel k;
-  k.state_ = std::make_shared<State>(State{std::move(*layout), std::move(*pipeline_layout), std::move(*pipeline),
+  k.state_ = std::make_shared<State>(State{std::move(layout), std::move(*pipeline_layout), std::move(pipeline),
                                            std::move(*paper_pipeline), std::move(*tiled_pipeline)});
   return k;
 }
@@ -190,48 +176,42 @@ Result<double> BtfDecodeKernel::run(gpu::Device& device, const GpuBtfModel& mode
     return fail(ErrorKind::InvalidArgument, "btf decode: {} queries need {} and {} bytes; the buffers have {} and {}", count,
                 std::uint64_t(count) * sizeof(DecodeQuery), std::uint64_t(count) * sizeof(vec4), queries.size(),
                 results.size());
-  auto group = device.create_bind_group(
-      {.label = "btf-decode", .layout = &state_->layout,
-       .entries = {gpu::bind(0, model.buffer), gpu::bind(1, queries), gpu::bind(2, results)}});
-  if (!group) return std::unexpected(group.error());
-  auto enc = device.create_command_encoder("btf-decode");
-  if (!enc) return std::unexpected(enc.error());
+  WEFT_TRY(auto group, device.create_bind_group(
+        {.label = "btf-decode", .layout = &state_->layout,
+         .entries = {gpu::bind(0, model.buffer), gpu::bind(1, queries), gpu::bind(2, results)}}));
+  WEFT_TRY(auto enc, device.create_command_encoder("btf-decode"));
   {
-    auto pass = enc->begin_compute_pass("btf-decode");
+    auto pass = enc.begin_compute_pass("btf-decode");
     pass.set_pipeline(variant == DecodeVariant::Unrolled ? state_->paper_pipeline
                       : variant == DecodeVariant::Tiled  ? state_->tiled_pipeline
                                                          : state_->pipeline);
-    pass.set_bind_group(0, *group);
+    pass.set_bind_group(0, group);
     pass.push(count);
     // The tiled kernel decodes 256 queries a workgroup (32 invocations x 8 rows), the others 64.
     const std::uint32_t per_group = variant == DecodeVariant::Tiled ? 256 : 64;
     pass.dispatch((count + per_group - 1) / per_group);
     pass.end();
   }
-  auto cmd = enc->finish();
-  if (!cmd) return std::unexpected(cmd.error());
+  WEFT_TRY(auto cmd, enc.finish());
   const auto start = std::chrono::steady_clock::now();
-  if (auto ok = device.queue().submit(std::move(*cmd)); !ok) return std::unexpected(ok.error());
-  if (auto ok = device.queue().wait_idle(); !ok) return std::unexpected(ok.error());
+  WEFT_TRY_VOID(device.queue().submit(std::move(cmd)));
+  WEFT_TRY_VOID(device.queue().wait_idle());
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 Result<std::vector<vec4>> BtfDecodeKernel::decode(gpu::Device& device, const GpuBtfModel& model,
                                                   std::span<const DecodeQuery> queries, DecodeVariant variant) const {
   if (queries.empty()) return std::vector<vec4>{};
-  auto in = device.create_buffer_with_data(
-      {.label = "btf-queries", .size = queries.size_bytes(), .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
-      std::as_bytes(queries));
-  if (!in) return std::unexpected(in.error());
-  auto out = device.create_buffer({.label = "btf-results", .size = queries.size() * sizeof(vec4),
-                                   .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopySrc});
-  if (!out) return std::unexpected(out.error());
-  if (auto ok = run(device, model, *in, *out, std::uint32_t(queries.size()), variant); !ok)
+  WEFT_TRY(auto in, device.create_buffer_with_data(
+        {.label = "btf-queries", .size = queries.size_bytes(), .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
+        std::as_bytes(queries)));
+  WEFT_TRY(auto out, device.create_buffer({.label = "btf-results", .size = queries.size() * sizeof(vec4),
+                                     .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopySrc}));
+  if (auto ok = run(device, model, in, out, std::uint32_t(queries.size()), variant); !ok)
     return std::unexpected(ok.error());
-  auto bytes = device.queue().read_buffer(*out);
-  if (!bytes) return std::unexpected(bytes.error());
+  WEFT_TRY(auto bytes, device.queue().read_buffer(out));
   std::vector<vec4> results(queries.size());
-  std::memcpy(results.data(), bytes->data(), results.size() * sizeof(vec4));
+  std::memcpy(results.data(), bytes.data(), results.size() * sizeof(vec4));
   return results;
 }
 
@@ -282,128 +262,103 @@ struct DecodePush {
 Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
   using gpu::BindingType;
   using gpu::ShaderStage;
-  auto vs = device.create_shader_module(
-      {.label = "neural_btf.vert", .stage = ShaderStage::Vertex, .spirv = shaders::neural_btf_vert()});
-  if (!vs) return std::unexpected(vs.error());
-  auto fs = device.create_shader_module(
-      {.label = "neural_btf.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_frag()});
-  if (!fs) return std::unexpected(fs.error());
-  auto reference_fs = device.create_shader_module({.label = "neural_btf_reference.frag",
-                                                   .stage = ShaderStage::Fragment,
-                                                   .spirv = shaders::neural_btf_reference_frag()});
-  if (!reference_fs) return std::unexpected(reference_fs.error());
-  auto gbuffer_fs = device.create_shader_module(
-      {.label = "neural_btf_gbuffer.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_gbuffer_frag()});
-  if (!gbuffer_fs) return std::unexpected(gbuffer_fs.error());
-  auto tiled_cs = device.create_shader_module(
-      {.label = "btf_decode_tiles.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_tiles_comp()});
-  if (!tiled_cs) return std::unexpected(tiled_cs.error());
-  auto generic_cs = device.create_shader_module({.label = "btf_decode_tiles_generic.comp",
-                                                 .stage = ShaderStage::Compute,
-                                                 .spirv = shaders::btf_decode_tiles_generic_comp()});
-  if (!generic_cs) return std::unexpected(generic_cs.error());
-  auto fullscreen_vs = device.create_shader_module(
-      {.label = "fullscreen.vert", .stage = ShaderStage::Vertex, .spirv = frame::fullscreen_vertex_spirv()});
-  if (!fullscreen_vs) return std::unexpected(fullscreen_vs.error());
-  auto resolve_fs = device.create_shader_module(
-      {.label = "neural_btf_resolve.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_resolve_frag()});
-  if (!resolve_fs) return std::unexpected(resolve_fs.error());
+  WEFT_TRY(auto vs, device.create_shader_module(
+        {.label = "neural_btf.vert", .stage = ShaderStage::Vertex, .spirv = shaders::neural_btf_vert()}));
+  WEFT_TRY(auto fs, device.create_shader_module(
+        {.label = "neural_btf.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_frag()}));
+  WEFT_TRY(auto reference_fs, device.create_shader_module({.label = "neural_btf_reference.frag",
+                                                     .stage = ShaderStage::Fragment,
+                                                     .spirv = shaders::neural_btf_reference_frag()}));
+  WEFT_TRY(auto gbuffer_fs, device.create_shader_module(
+        {.label = "neural_btf_gbuffer.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_gbuffer_frag()}));
+  WEFT_TRY(auto tiled_cs, device.create_shader_module(
+        {.label = "btf_decode_tiles.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_tiles_comp()}));
+  WEFT_TRY(auto generic_cs, device.create_shader_module({.label = "btf_decode_tiles_generic.comp",
+                                                   .stage = ShaderStage::Compute,
+                                                   .spirv = shaders::btf_decode_tiles_generic_comp()}));
+  WEFT_TRY(auto fullscreen_vs, device.create_shader_module(
+        {.label = "fullscreen.vert", .stage = ShaderStage::Vertex, .spirv = frame::fullscreen_vertex_spirv()}));
+  WEFT_TRY(auto resolve_fs, device.create_shader_module(
+        {.label = "neural_btf_resolve.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_resolve_frag()}));
 
-  auto frame_layout = device.create_bind_group_layout(
-      {.label = "neural-btf-frame",
-       .entries = {{0, BindingType::UniformBuffer, ShaderStage::Vertex | ShaderStage::Fragment},
-                   {1, BindingType::TextureSampler, ShaderStage::Fragment}}});
-  if (!frame_layout) return std::unexpected(frame_layout.error());
-  auto material_layout = device.create_bind_group_layout(
-      {.label = "neural-btf-model", .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Fragment}}});
-  if (!material_layout) return std::unexpected(material_layout.error());
-  auto layout = device.create_pipeline_layout({.label = "neural-btf",
-                                               .bind_group_layouts = {&*frame_layout, &*material_layout},
-                                               .push_constant_size = sizeof(NeuralBtfConstants)});
-  if (!layout) return std::unexpected(layout.error());
-  auto pipeline = frame::create_lit_mesh_pipeline(device, "neural-btf", *layout, *vs, *fs, color_format, depth_format);
-  if (!pipeline) return std::unexpected(pipeline.error());
-  auto reference_pipeline = frame::create_lit_mesh_pipeline(device, "neural-btf-reference", *layout, *vs, *reference_fs,
-                                                            color_format, depth_format);
-  if (!reference_pipeline) return std::unexpected(reference_pipeline.error());
-  auto shadow_compare = frame::create_shadow_compare_sampler(device, "neural-btf-shadow");
-  if (!shadow_compare) return std::unexpected(shadow_compare.error());
+  WEFT_TRY(auto frame_layout, device.create_bind_group_layout(
+        {.label = "neural-btf-frame",
+         .entries = {{0, BindingType::UniformBuffer, ShaderStage::Vertex | ShaderStage::Fragment},
+                     {1, BindingType::TextureSampler, ShaderStage::Fragment}}}));
+  WEFT_TRY(auto material_layout, device.create_bind_group_layout(
+        {.label = "neural-btf-model", .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Fragment}}}));
+  WEFT_TRY(auto layout, device.create_pipeline_layout({.label = "neural-btf",
+                                                 .bind_group_layouts = {&frame_layout, &material_layout},
+                                                 .push_constant_size = sizeof(NeuralBtfConstants)}));
+  WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipeline(device, "neural-btf", layout, vs, fs, frame::scene_color_format, frame::scene_depth_format));
+  WEFT_TRY(auto reference_pipeline, frame::create_lit_mesh_pipeline(device, "neural-btf-reference", layout, vs, reference_fs,
+                                                              frame::scene_color_format, frame::scene_depth_format));
+  WEFT_TRY(auto shadow_compare, frame::create_shadow_compare_sampler(device, "neural-btf-shadow"));
 
-  auto gbuffer_pipeline = device.create_render_pipeline(
-      {.label = "neural-btf-gbuffer",
-       .layout = &*layout,
-       .vertex = &*vs,
-       .fragment = &*gbuffer_fs,
-       .vertex_buffers = {frame::vertex_layout()},
-       .cull_mode = gpu::CullMode::None,
-       .color_targets = {{gbuffer_format}, {gbuffer_format}, {gbuffer_format}, {gbuffer_format}},
-       .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
-  if (!gbuffer_pipeline) return std::unexpected(gbuffer_pipeline.error());
-  auto decode_layout = device.create_bind_group_layout({.label = "neural-btf-decode",
-                                                        .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
-                                                                    {1, BindingType::TextureSampler, ShaderStage::Compute},
-                                                                    {2, BindingType::TextureSampler, ShaderStage::Compute},
-                                                                    {3, BindingType::TextureSampler, ShaderStage::Compute},
-                                                                    {4, BindingType::TextureSampler, ShaderStage::Compute},
-                                                                    {5, BindingType::StorageBuffer, ShaderStage::Compute}}});
-  if (!decode_layout) return std::unexpected(decode_layout.error());
-  auto decode_pipeline_layout = device.create_pipeline_layout(
-      {.label = "neural-btf-decode", .bind_group_layouts = {&*decode_layout}, .push_constant_size = sizeof(DecodePush)});
-  if (!decode_pipeline_layout) return std::unexpected(decode_pipeline_layout.error());
-  auto decode_tiled = device.create_compute_pipeline(
-      {.label = "neural-btf-decode-tiled", .layout = &*decode_pipeline_layout, .module = &*tiled_cs});
-  if (!decode_tiled) return std::unexpected(decode_tiled.error());
-  auto decode_generic = device.create_compute_pipeline(
-      {.label = "neural-btf-decode-generic", .layout = &*decode_pipeline_layout, .module = &*generic_cs});
-  if (!decode_generic) return std::unexpected(decode_generic.error());
-  auto resolve_layout = device.create_bind_group_layout(
-      {.label = "neural-btf-resolve",
-       .entries = {{0, BindingType::TextureSampler, ShaderStage::Fragment},
-                   {1, BindingType::ReadOnlyStorageBuffer, ShaderStage::Fragment}}});
-  if (!resolve_layout) return std::unexpected(resolve_layout.error());
-  auto resolve_pipeline_layout = device.create_pipeline_layout(
-      {.label = "neural-btf-resolve", .bind_group_layouts = {&*resolve_layout}, .push_constant_size = sizeof(DecodePush)});
-  if (!resolve_pipeline_layout) return std::unexpected(resolve_pipeline_layout.error());
-  auto resolve_pipeline = device.create_render_pipeline({.label = "neural-btf-resolve",
-                                                         .layout = &*resolve_pipeline_layout,
-                                                         .vertex = &*fullscreen_vs,
-                                                         .fragment = &*resolve_fs,
-                                                         .color_targets = {{color_format}}});
-  if (!resolve_pipeline) return std::unexpected(resolve_pipeline.error());
-  auto nearest = device.create_sampler(
-      {.label = "neural-btf-gbuffer", .mag_filter = gpu::FilterMode::Nearest, .min_filter = gpu::FilterMode::Nearest});
-  if (!nearest) return std::unexpected(nearest.error());
+  WEFT_TRY(auto gbuffer_pipeline, device.create_render_pipeline(
+        {.label = "neural-btf-gbuffer",
+         .layout = &layout,
+         .vertex = &vs,
+         .fragment = &gbuffer_fs,
+         .vertex_buffers = {frame::vertex_layout()},
+         .cull_mode = gpu::CullMode::None,
+         .color_targets = {{gbuffer_format}, {gbuffer_format}, {gbuffer_format}, {gbuffer_format}},
+         .depth_stencil = gpu::DepthStencilState{.format = frame::scene_depth_format}}));
+  WEFT_TRY(auto decode_layout, device.create_bind_group_layout({.label = "neural-btf-decode",
+                                                          .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
+                                                                      {1, BindingType::TextureSampler, ShaderStage::Compute},
+                                                                      {2, BindingType::TextureSampler, ShaderStage::Compute},
+                                                                      {3, BindingType::TextureSampler, ShaderStage::Compute},
+                                                                      {4, BindingType::TextureSampler, ShaderStage::Compute},
+                                                                      {5, BindingType::StorageBuffer, ShaderStage::Compute}}}));
+  WEFT_TRY(auto decode_pipeline_layout, device.create_pipeline_layout(
+        {.label = "neural-btf-decode", .bind_group_layouts = {&decode_layout}, .push_constant_size = sizeof(DecodePush)}));
+  WEFT_TRY(auto decode_tiled, device.create_compute_pipeline(
+        {.label = "neural-btf-decode-tiled", .layout = &decode_pipeline_layout, .module = &tiled_cs}));
+  WEFT_TRY(auto decode_generic, device.create_compute_pipeline(
+        {.label = "neural-btf-decode-generic", .layout = &decode_pipeline_layout, .module = &generic_cs}));
+  WEFT_TRY(auto resolve_layout, device.create_bind_group_layout(
+        {.label = "neural-btf-resolve",
+         .entries = {{0, BindingType::TextureSampler, ShaderStage::Fragment},
+                     {1, BindingType::ReadOnlyStorageBuffer, ShaderStage::Fragment}}}));
+  WEFT_TRY(auto resolve_pipeline_layout, device.create_pipeline_layout(
+        {.label = "neural-btf-resolve", .bind_group_layouts = {&resolve_layout}, .push_constant_size = sizeof(DecodePush)}));
+  WEFT_TRY(auto resolve_pipeline, device.create_render_pipeline({.label = "neural-btf-resolve",
+                                                           .layout = &resolve_pipeline_layout,
+                                                           .vertex = &fullscreen_vs,
+                                                           .fragment = &resolve_fs,
+                                                           .color_targets = {{frame::scene_color_format}}}));
+  WEFT_TRY(auto nearest, device.create_sampler(
+        {.label = "neural-btf-gbuffer", .mag_filter = gpu::FilterMode::Nearest, .min_filter = gpu::FilterMode::Nearest}));
 
   NeuralBTFMaterial pass;
-  pass.state_ = std::make_shared<State>(State{std::move(*frame_layout), std::move(*material_layout), std::move(*layout),
-                                              std::move(*pipeline), std::move(*reference_pipeline),
-                                              std::move(*shadow_compare), std::move(*gbuffer_pipeline), std::move(*decode_layout),
-                                              std::move(*decode_pipeline_layout), std::move(*decode_tiled),
-                                              std::move(*decode_generic), std::move(*resolve_layout),
-                                              std::move(*resolve_pipeline_layout), std::move(*resolve_pipeline),
-                                              std::move(*nearest)});
+  pass.state_ = std::make_shared<State>(State{std::move(frame_layout), std::move(material_layout), std::move(layout),
+                                              std::move(pipeline), std::move(reference_pipeline),
+                                              std::move(shadow_compare), std::move(gbuffer_pipeline), std::move(decode_layout),
+                                              std::move(decode_pipeline_layout), std::move(decode_tiled),
+                                              std::move(decode_generic), std::move(resolve_layout),
+                                              std::move(resolve_pipeline_layout), std::move(resolve_pipeline),
+                                              std::move(nearest)});
   return pass;
 }
 
 Result<std::shared_ptr<NeuralBtfGpuMaterial>> NeuralBTFMaterial::create_material(gpu::Device& device,
                                                                              const btf::NeuralBtfParams& params,
                                                                              const GpuBtfModel& model) const {
-  auto group = device.create_bind_group(
-      {.label = "neural-btf-model", .layout = &state_->material_layout, .entries = {gpu::bind(0, model.buffer)}});
-  if (!group) return std::unexpected(group.error());
+  WEFT_TRY(auto group, device.create_bind_group(
+        {.label = "neural-btf-model", .layout = &state_->material_layout, .entries = {gpu::bind(0, model.buffer)}}));
   return std::make_shared<NeuralBtfGpuMaterial>(
-      NeuralBtfGpuMaterial{params, &model.buffer, model.tiled, std::move(*group), false});
+      NeuralBtfGpuMaterial{params, &model.buffer, model.tiled, std::move(group), false});
 }
 
 Result<std::shared_ptr<NeuralBtfGpuMaterial>> NeuralBTFMaterial::create_material(gpu::Device& device,
                                                                              const btf::NeuralBtfParams& params,
                                                                              const GpuBtfReference& reference) const {
-  auto group = device.create_bind_group({.label = "neural-btf-reference",
-                                         .layout = &state_->material_layout,
-                                         .entries = {gpu::bind(0, reference.buffer)}});
-  if (!group) return std::unexpected(group.error());
+  WEFT_TRY(auto group, device.create_bind_group({.label = "neural-btf-reference",
+                                           .layout = &state_->material_layout,
+                                           .entries = {gpu::bind(0, reference.buffer)}}));
   return std::make_shared<NeuralBtfGpuMaterial>(
-      NeuralBtfGpuMaterial{params, &reference.buffer, false, std::move(*group), true});
+      NeuralBtfGpuMaterial{params, &reference.buffer, false, std::move(group), true});
 }
 
 namespace {

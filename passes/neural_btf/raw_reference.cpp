@@ -11,10 +11,8 @@ module;
 #include <string>
 #include <string_view>
 #include <vector>
+#include <weft/try.h>
 module weft.pass.neural_btf;
-import weft.core;
-import weft.gpu;
-import weft.btf;
 
 namespace weft::passes {
 
@@ -25,7 +23,7 @@ constexpr std::uint64_t kReferenceBytesCap = std::uint64_t(1) << 30;
 }  // namespace
 
 Result<PackedBtfReference> pack_reference(const btf::Btf& data, std::uint64_t max_bytes) {
-  if (auto ok = btf::validate(data, "the reference mode's BTF"); !ok) return std::unexpected(ok.error());
+  WEFT_TRY_VOID(btf::validate(data, "the reference mode's BTF"));
   const std::uint64_t header = 16 + 16 * std::uint64_t(data.lights.size() + data.views.size());
   const std::uint64_t per_texel = std::uint64_t(data.abrdf_floats()) * 4;
   const std::uint64_t fit = max_bytes > header ? (max_bytes - header) / per_texel : 0;
@@ -63,13 +61,11 @@ Result<PackedBtfReference> pack_reference(const btf::Btf& data, std::uint64_t ma
 
 Result<GpuBtfReference> upload_reference(gpu::Device& device, const btf::Btf& data, std::string_view label) {
   const std::uint64_t range = device.adapter_info().limits.max_storage_buffer_range;
-  auto packed = pack_reference(data, std::min(range > 0 ? range : kReferenceBytesCap, kReferenceBytesCap));
-  if (!packed) return std::unexpected(packed.error());
-  auto buffer = device.create_buffer_with_data({.label = std::string(label), .size = packed->words.size() * 4,
-                                                .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
-                                               std::as_bytes(std::span(packed->words)));
-  if (!buffer) return std::unexpected(buffer.error());
-  return GpuBtfReference{std::move(*buffer), packed->crop, packed->cropped};
+  WEFT_TRY(auto packed, pack_reference(data, std::min(range > 0 ? range : kReferenceBytesCap, kReferenceBytesCap)));
+  WEFT_TRY(auto buffer, device.create_buffer_with_data({.label = std::string(label), .size = packed.words.size() * 4,
+                                                  .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
+                                                 std::as_bytes(std::span(packed.words))));
+  return GpuBtfReference{std::move(buffer), packed.crop, packed.cropped};
 }
 
 }  // namespace weft::passes

@@ -6,11 +6,8 @@ module;
 #include <span>
 #include <glm/gtc/matrix_transform.hpp>
 #include "weft_pass_shadow_shaders.h"
+#include <weft/try.h>
 module weft.base_pass.shadow;
-import weft.core;
-import weft.gpu;
-import weft.graph;
-import weft.frame;
 
 namespace weft::passes {
 
@@ -30,21 +27,18 @@ Result<ShadowPass> ShadowPass::create(gpu::Device& device, const ShadowSettings&
   if (settings.resolution < 16 || settings.resolution > device.adapter_info().limits.max_texture_dimension_2d)
     return fail(ErrorKind::InvalidArgument, "shadow pass: resolution {} outside [16, {}]", settings.resolution,
                 device.adapter_info().limits.max_texture_dimension_2d);
-  auto vs = device.create_shader_module({.label = "shadow.vert", .stage = gpu::ShaderStage::Vertex, .spirv = shaders::shadow_vert()});
-  if (!vs) return std::unexpected(vs.error());
-  auto layout = device.create_pipeline_layout({.label = "shadow", .push_constant_size = sizeof(mat4)});
-  if (!layout) return std::unexpected(layout.error());
-  auto pipeline = device.create_render_pipeline(
-      {.label = "shadow",
-       .layout = &*layout,
-       .vertex = &*vs,
-       .vertex_buffers = {frame::vertex_layout()},
-       .cull_mode = gpu::CullMode::None,  // thin and open meshes cast shadows from both sides
-       .depth_stencil = gpu::DepthStencilState{.format = gpu::Format::Depth32Float,
-                                               .depth_bias_constant = settings.depth_bias_constant,
-                                               .depth_bias_slope = settings.depth_bias_slope}});
-  if (!pipeline) return std::unexpected(pipeline.error());
-  return ShadowPass(settings, std::move(*layout), std::move(*pipeline));
+  WEFT_TRY(auto vs, device.create_shader_module({.label = "shadow.vert", .stage = gpu::ShaderStage::Vertex, .spirv = shaders::shadow_vert()}));
+  WEFT_TRY(auto layout, device.create_pipeline_layout({.label = "shadow", .push_constant_size = sizeof(mat4)}));
+  WEFT_TRY(auto pipeline, device.create_render_pipeline(
+        {.label = "shadow",
+         .layout = &layout,
+         .vertex = &vs,
+         .vertex_buffers = {frame::vertex_layout()},
+         .cull_mode = gpu::CullMode::None,  // thin and open meshes cast shadows from both sides
+         .depth_stencil = gpu::DepthStencilState{.format = gpu::Format::Depth32Float,
+                                                 .depth_bias_constant = settings.depth_bias_constant,
+                                                 .depth_bias_slope = settings.depth_bias_slope}}));
+  return ShadowPass(settings, std::move(layout), std::move(pipeline));
 }
 
 TextureHandle ShadowPass::add(RenderGraph& graph, std::span<const frame::DrawItem> items,

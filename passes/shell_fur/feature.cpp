@@ -18,20 +18,21 @@ module;
 #include <nlohmann/json.hpp>
 #include <weft/try.h>
 module weft.pass.shell_fur;
-import weft.core;
-import weft.gpu;
-import weft.graph;
-import weft.frame;
-import weft.image;
-import weft.scene;
-import weft.feature;
 
 namespace weft::passes {
+
+using namespace fur;
 
 namespace {
 
 class ShellFurFeature final : public FeaturePass {
  public:
+  // The factory the descriptor names: the graph pass first, then the feature around it.
+  static Result<std::unique_ptr<FeaturePass>> create(gpu::Device& device) {
+    WEFT_TRY(auto pass, ShellFurPass::create(device));
+    return std::unique_ptr<FeaturePass>(std::make_unique<ShellFurFeature>(device, std::move(pass)));
+  }
+
   explicit ShellFurFeature(gpu::Device& device, ShellFurPass pass) : device_(&device), pass_(std::move(pass)) {}
 
   [[nodiscard]] std::string_view name() const override { return "shell_fur"; }
@@ -81,9 +82,8 @@ class ShellFurFeature final : public FeaturePass {
     if (!image) return with_context(weft::format("material '{}': photo", material_name), image.error());
     auto photo = analyze_fur_photo(*image, m.thresholds);
     if (!photo) return with_context(weft::format("material '{}'", material_name), photo.error());
-    auto texture = upload_fur_photo(*device_, *photo, m.photo.filename().string());
-    if (!texture) return std::unexpected(texture.error());
-    auto asset = std::make_unique<PhotoAsset>(PhotoAsset{std::move(*photo), std::move(*texture)});
+    WEFT_TRY(auto texture, upload_fur_photo(*device_, *photo, m.photo.filename().string()));
+    auto asset = std::make_unique<PhotoAsset>(PhotoAsset{std::move(*photo), std::move(texture)});
     return photos_.emplace(key, std::move(asset)).first->second.get();
   }
 
@@ -91,67 +91,60 @@ class ShellFurFeature final : public FeaturePass {
     const std::uint64_t key =
         Hasher{}.value(&photo).value(photo.photo.i_max).value(photo.photo.i_min).value(m.layers).value(m.layout).digest();
     if (auto it = tables_.find(key); it != tables_.end()) return it->second.get();
-    auto table = make_band_table(photo.photo.i_max, photo.photo.i_min, m.layers, m.layout);
-    if (!table) return std::unexpected(table.error());
-    auto uploaded = upload_band_table(*device_, std::move(*table), photo.texture.photo.label());
-    if (!uploaded) return std::unexpected(uploaded.error());
-    return tables_.emplace(key, std::make_unique<FurLayerTable>(std::move(*uploaded))).first->second.get();
+    WEFT_TRY(auto table, make_band_table(photo.photo.i_max, photo.photo.i_min, m.layers, m.layout));
+    WEFT_TRY(auto uploaded, upload_band_table(*device_, std::move(table), photo.texture.photo.label()));
+    return tables_.emplace(key, std::make_unique<FurLayerTable>(std::move(uploaded))).first->second.get();
   }
 
   Result<void> add_object(const FeatureFrame& frame, const scene::Object& object, const scene::Material& material) {
-    auto m = parse_fur_material(material, frame.quality);
-    if (!m) return std::unexpected(m.error());
-    auto photo = photo_for(*m, material.name);
-    if (!photo) return std::unexpected(photo.error());
-    for (const auto& note : (*photo)->photo.notes)
+    WEFT_TRY(auto m, parse_fur_material(material, frame.quality));
+    WEFT_TRY(auto photo, photo_for(m, material.name));
+    for (const auto& note : photo->photo.notes)
       warnings_.push_back(weft::format("fur material '{}': {}", material.name, note));
-    if ((*photo)->photo.bimodality > 0.85)
+    if (photo->photo.bimodality > 0.85)
       warnings_.push_back(weft::format(
           "fur material '{}': the photo's luminance has two separate populations (separability {:.2f}); "
           "two-coloured fur is the method's weak case: dark patches will sit deep in the fur (docs/fur.md)",
-          material.name, (*photo)->photo.bimodality));
-    auto table = table_for(**photo, *m);
-    if (!table) return std::unexpected(table.error());
+          material.name, photo->photo.bimodality));
+    WEFT_TRY(auto table, table_for(*photo, m));
 
     const scene::Mesh& mesh = frame.scene.meshes.at(object.mesh);
     const frame::GpuMesh* gpu_mesh = frame.meshes[object.mesh];
-    MeshAsset& asset = meshes_[Hasher{}.value(mesh_content_hash(mesh)).value(m->uv_mapping).digest()];
-    const bool generate = !mesh.has_uvs() || m->uv_mapping == FurUvMapping::Planar ||
-                          m->uv_mapping == FurUvMapping::Spherical;
+    MeshAsset& asset = meshes_[Hasher{}.value(mesh_content_hash(mesh)).value(m.uv_mapping).digest()];
+    const bool generate = !mesh.has_uvs() || m.uv_mapping == FurUvMapping::Planar ||
+                          m.uv_mapping == FurUvMapping::Spherical;
     scene::Mesh uv_mesh;
     if (generate) {
       if (!asset.generated) {
         uv_mesh = mesh;
-        if (auto ok = generate_fur_uvs(uv_mesh, m->uv_mapping); !ok)
+        if (auto ok = generate_fur_uvs(uv_mesh, m.uv_mapping); !ok)
           return with_context(weft::format("material '{}'", material.name), ok.error());
-        auto uploaded = frame::upload_mesh(*device_, to_mesh_data(uv_mesh));
-        if (!uploaded) return std::unexpected(uploaded.error());
-        asset.generated = std::make_unique<frame::GpuMesh>(std::move(*uploaded));
+        WEFT_TRY(auto uploaded, frame::upload_mesh(*device_, to_mesh_data(uv_mesh)));
+        asset.generated = std::make_unique<frame::GpuMesh>(std::move(uploaded));
       }
       gpu_mesh = asset.generated.get();
       if (!mesh.has_uvs())
         warnings_.push_back(weft::format("fur material '{}': mesh '{}' has no UVs; the photo is mapped with generated "
                                          "{} UVs (set \"uv_mapping\" to choose)",
                                          material.name, mesh.name,
-                                         m->uv_mapping == FurUvMapping::Auto ? "planar or spherical"
-                                                                             : to_string(m->uv_mapping)));
+                                         m.uv_mapping == FurUvMapping::Auto ? "planar or spherical"
+                                                                             : to_string(m.uv_mapping)));
     }
-    if (m->fins && !asset.fins_built) {
+    if (m.fins && !asset.fins_built) {
       const scene::Mesh& source = generate && !uv_mesh.positions.empty() ? uv_mesh : mesh;
       const auto edges = make_fin_edges(source.positions, source.normals, source.uvs, source.indices);
       if (!edges.empty()) {
-        auto fins = upload_fins(*device_, edges, mesh.name);
-        if (!fins) return std::unexpected(fins.error());
-        asset.fins = std::make_unique<FurFins>(std::move(*fins));
+        WEFT_TRY(auto fins, upload_fins(*device_, edges, mesh.name));
+        asset.fins = std::make_unique<FurFins>(std::move(fins));
       }
       asset.fins_built = true;
     }
     const float diagonal = glm::length(mesh.bounds.empty() ? scene::compute_bounds(mesh.positions).size() : mesh.bounds.size());
-    ShellFurDraw draw{.mesh = gpu_mesh, .model = object.transform, .photo = &(*photo)->texture, .layers = *table,
-                      .fins = m->fins ? asset.fins.get() : nullptr};
-    draw.shading = {.thickness = m->thickness_for(diagonal), .tint = m->tint, .lighting = m->lighting,
-                    .uv_scale = m->uv_scale, .wrap = m->wrap, .comb = m->comb, .lift_degrees = m->lift_degrees,
-                    .specular = m->specular, .shininess = m->shininess, .fin_threshold = m->fin_threshold};
+    ShellFurDraw draw{.mesh = gpu_mesh, .model = object.transform, .photo = &photo->texture, .layers = table,
+                      .fins = m.fins ? asset.fins.get() : nullptr};
+    draw.shading = {.thickness = m.thickness_for(diagonal), .tint = m.tint, .lighting = m.lighting,
+                    .uv_scale = m.uv_scale, .wrap = m.wrap, .comb = m.comb, .lift_degrees = m.lift_degrees,
+                    .specular = m.specular, .shininess = m.shininess, .fin_threshold = m.fin_threshold};
     draws_.push_back(draw);
     return {};
   }
@@ -167,47 +160,28 @@ class ShellFurFeature final : public FeaturePass {
 
 }  // namespace
 
-namespace {
-
-Result<std::unique_ptr<FeaturePass>> create_feature(gpu::Device& device) {
-  WEFT_TRY(auto pass, ShellFurPass::create(device));
-  return std::unique_ptr<FeaturePass>(std::make_unique<ShellFurFeature>(device, std::move(pass)));
-}
-
-Result<void> check_material(const scene::Material& material) {
-  WEFT_TRY_VOID(parse_fur_material(material));
-  return {};
-}
-
-}  // namespace
-
 // Quality picks `layers` (8 / 15 / 32 / 64); docs/fur.md and docs/tradeoffs.md say more.
 const FeatureDescriptor& shell_fur_feature() {
-  static const FeatureDescriptor feature = [] {
-    FeatureDescriptor d;
-    d.name = "shell_fur";
-    d.aliases = {"fur"};
-    d.summary = "fur grown as shells and fins from one photograph of fur";
-    d.doc = "docs/fur.md";
-    d.check_material = &check_material;
-    d.create = &create_feature;
-    d.passes = {"shell_fur"};
-    d.knobs = {
-        integer_knob("layers", 1, max_fur_layers, {1, 2, 4, 8, 15, 32, 64, 128},
-                     "shells N: the height field's depth resolution"),
-        boolean_knob("fins", "silhouette fins (Lengyel): one quad per edge near the silhouette"),
-        number_knob("fin_threshold", 0, 1, {0.1, 0.35, 0.7}, "|N.V| below which an edge grows a fin"),
-    };
-    d.preset_values = [](Quality q) -> nlohmann::json { return {{"layers", fur_layers_for(q)}}; };
-    // As N grows the strand shells converge to the continuous height field the photo
-    // describes (the gap between shells, h_b / N, falls below a pixel); fins patch the gaps
-    // of few shells at grazing angles, so the limit has none.
-    d.reference = {{"layers", max_fur_layers}, {"fins", false}};
-    d.reference_why = "256 shells (the most the material takes), no fins: the limit the shells converge to";
-    d.cost = CostAxis::Frame;
-    d.grids = {{"layers", "fins"}};
-    return d;
-  }();
+  static const FeatureDescriptor feature{
+      .name = "shell_fur", .aliases = {"fur"}, .doc = "docs/fur.md",
+      .summary = "fur grown as shells and fins from one photograph of fur",
+      .check_material = check_by_parsing<&fur::parse_fur_material>, .create = &ShellFurFeature::create,
+      .passes = {"shell_fur"},
+      .knobs = {
+          integer_knob("layers", 1, max_fur_layers, {1, 2, 4, 8, 15, 32, 64, 128},
+                       "shells N: the height field's depth resolution"),
+          boolean_knob("fins", "silhouette fins (Lengyel): one quad per edge near the silhouette"),
+          number_knob("fin_threshold", 0, 1, {0.1, 0.35, 0.7}, "|N.V| below which an edge grows a fin"),
+      },
+      .preset_values = [](Quality q) -> nlohmann::json { return {{"layers", fur_layers_for(q)}}; },
+      // As N grows the strand shells converge to the continuous height field the photo
+      // describes (the gap between shells, h_b / N, falls below a pixel); fins patch the gaps
+      // of few shells at grazing angles, so the limit has none.
+      .reference = {{"layers", max_fur_layers}, {"fins", false}},
+      .reference_why = "256 shells (the most the material takes), no fins: the limit the shells converge to",
+      .cost = CostAxis::Frame,
+      .grids = {{"layers", "fins"}},
+  };
   return feature;
 }
 

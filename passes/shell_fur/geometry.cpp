@@ -13,10 +13,8 @@ module;
 #include <vector>
 #include <glm/glm.hpp>
 module weft.pass.shell_fur;
-import weft.core;
-import weft.scene;
 
-namespace weft::passes {
+namespace weft::fur {
 
 namespace {
 
@@ -160,4 +158,4 @@ Result<void> generate_fur_uvs(scene::Mesh& mesh, FurUvMapping mapping) {
   return {};
 }
 
-}  // namespace weft::passes
+}  // namespace weft::fur

@@ -12,18 +12,15 @@ module;
 #include <string_view>
 #include <vector>
 #include "weft_pass_shell_fur_shaders.h"
+#include <weft/try.h>
 module weft.pass.shell_fur;
-import weft.core;
-import weft.gpu;
-import weft.graph;
-import weft.frame;
 
 namespace weft::passes {
 
+using namespace fur;
+
 namespace {
 
-constexpr gpu::Format color_format = frame::scene_color_format;
-constexpr gpu::Format depth_format = frame::scene_depth_format;
 
 // The push constants of fur_common.glsl (128 bytes, the guaranteed minimum).
 struct FurPush {
@@ -47,11 +44,10 @@ FurPush push_constants(const ShellFurDraw& d) {
 
 Result<gpu::Texture> upload_texture(gpu::Device& device, std::string label, std::uint32_t w, std::uint32_t h,
                                     gpu::Format format, std::span<const std::uint8_t> texels) {
-  auto texture = device.create_texture({.label = std::move(label), .size = {w, h, 1}, .format = format,
-                                        .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
-  if (!texture) return std::unexpected(texture.error());
-  if (auto ok = device.queue().write_texture(*texture, std::as_bytes(texels)); !ok) return std::unexpected(ok.error());
-  return std::move(*texture);
+  WEFT_TRY(auto texture, device.create_texture({.label = std::move(label), .size = {w, h, 1}, .format = format,
+                                          .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst}));
+  WEFT_TRY_VOID(device.queue().write_texture(texture, std::as_bytes(texels)));
+  return std::move(texture);
 }
 
 std::uint64_t texture_bytes(const gpu::Texture& t) {
@@ -72,41 +68,36 @@ Result<FurPhotoTexture> upload_fur_photo(gpu::Device& device, const FurPhoto& ph
   if (photo.width == 0 || photo.height == 0 || photo.rgba.size() != photo.texel_count() * 4 ||
       photo.orientation.size() != photo.texel_count() * 2)
     return fail(ErrorKind::InvalidArgument, "fur photo '{}': not an analysed photo (use analyze_fur_photo)", label);
-  auto rgba = upload_texture(device, weft::format("{}.photo", label), photo.width, photo.height, gpu::Format::RGBA8Srgb,
-                             photo.rgba);
-  if (!rgba) return std::unexpected(rgba.error());
-  auto orientation = upload_texture(device, weft::format("{}.orientation", label), photo.width, photo.height,
-                                    gpu::Format::RG8Unorm, photo.orientation);
-  if (!orientation) return std::unexpected(orientation.error());
-  return FurPhotoTexture{std::move(*rgba), std::move(*orientation)};
+  WEFT_TRY(auto rgba, upload_texture(device, weft::format("{}.photo", label), photo.width, photo.height, gpu::Format::RGBA8Srgb,
+                               photo.rgba));
+  WEFT_TRY(auto orientation, upload_texture(device, weft::format("{}.orientation", label), photo.width, photo.height,
+                                      gpu::Format::RG8Unorm, photo.orientation));
+  return FurPhotoTexture{std::move(rgba), std::move(orientation)};
 }
 
 Result<FurLayerTable> upload_band_table(gpu::Device& device, FurBandTable table, std::string_view label,
                                         const FurPhoto* photo_for_textures) {
   if (table.gpu.size() != std::size_t(table.layers) + 1 || table.layers == 0)
     return fail(ErrorKind::InvalidArgument, "fur band table '{}': not made by make_band_table", label);
-  auto bands = device.create_buffer_with_data(
-      {.label = weft::format("{}.bands", label), .usage = gpu::BufferUsage::Storage}, std::as_bytes(std::span(table.gpu)));
-  if (!bands) return std::unexpected(bands.error());
+  WEFT_TRY(auto bands, device.create_buffer_with_data(
+        {.label = weft::format("{}.bands", label), .usage = gpu::BufferUsage::Storage}, std::as_bytes(std::span(table.gpu))));
   std::vector<gpu::Texture> textures;
   if (photo_for_textures) {
     const auto layers = make_shell_textures(*photo_for_textures, table);
     for (std::size_t n = 0; n < layers.size(); ++n) {
-      auto t = upload_texture(device, weft::format("{}.layer{}", label, n), photo_for_textures->width,
-                              photo_for_textures->height, gpu::Format::RGBA8Srgb, layers[n]);
-      if (!t) return std::unexpected(t.error());
-      textures.push_back(std::move(*t));
+      WEFT_TRY(auto t, upload_texture(device, weft::format("{}.layer{}", label, n), photo_for_textures->width,
+                                photo_for_textures->height, gpu::Format::RGBA8Srgb, layers[n]));
+      textures.push_back(std::move(t));
     }
   }
-  return FurLayerTable{std::move(table), std::move(*bands), std::move(textures)};
+  return FurLayerTable{std::move(table), std::move(bands), std::move(textures)};
 }
 
 Result<FurFins> upload_fins(gpu::Device& device, std::span<const FurFinEdge> edges, std::string_view label) {
   if (edges.empty()) return fail(ErrorKind::InvalidArgument, "fur fins '{}': the mesh has no edges", label);
-  auto buffer = device.create_buffer_with_data({.label = weft::format("{}.fins", label), .usage = gpu::BufferUsage::Storage},
-                                               std::as_bytes(edges));
-  if (!buffer) return std::unexpected(buffer.error());
-  return FurFins{std::move(*buffer), std::uint32_t(edges.size())};
+  WEFT_TRY(auto buffer, device.create_buffer_with_data({.label = weft::format("{}.fins", label), .usage = gpu::BufferUsage::Storage},
+                                                 std::as_bytes(edges)));
+  return FurFins{std::move(buffer), std::uint32_t(edges.size())};
 }
 
 struct ShellFurPass::State {
@@ -139,40 +130,35 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
                    {4, BindingType::TextureSampler, ShaderStage::Fragment},
                    {5, BindingType::ReadOnlyStorageBuffer, ShaderStage::Vertex}}});  // fin edges
   if (!bind_layout) return std::unexpected(bind_layout.error());
-  auto layout = device.create_pipeline_layout(
-      {.label = "shell_fur", .bind_group_layouts = {&*bind_layout}, .push_constant_size = sizeof(FurPush)});
-  if (!layout) return std::unexpected(layout.error());
+  WEFT_TRY(auto layout, device.create_pipeline_layout(
+        {.label = "shell_fur", .bind_group_layouts = {&*bind_layout}, .push_constant_size = sizeof(FurPush)}));
   auto pipeline = [&](std::string label, const gpu::ShaderModule& vs, const gpu::ShaderModule& fs,
                       gpu::VertexBufferLayout vertices) {
-    return frame::create_lit_mesh_pipeline(device, std::move(label), *layout, vs, fs, color_format, depth_format,
+    return frame::create_lit_mesh_pipeline(device, std::move(label), layout, vs, fs, frame::scene_color_format, frame::scene_depth_format,
                                            std::move(vertices));
   };
-  auto shells = pipeline("shell_fur.shells", *shell_vs, *shell_fs, frame::vertex_layout());
-  if (!shells) return std::unexpected(shells.error());
+  WEFT_TRY(auto shells, pipeline("shell_fur.shells", *shell_vs, *shell_fs, frame::vertex_layout()));
   // The fins read their edges from a storage buffer: no vertex buffers.
-  auto fins = device.create_render_pipeline({.label = "shell_fur.fins",
-                                             .layout = &*layout,
-                                             .vertex = &*fin_vs,
-                                             .fragment = &*fin_fs,
-                                             .cull_mode = gpu::CullMode::None,
-                                             .color_targets = {{color_format}},
-                                             .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
-  if (!fins) return std::unexpected(fins.error());
-  auto naive = pipeline("shell_fur.naive", *shell_vs, *naive_fs, frame::vertex_layout());
-  if (!naive) return std::unexpected(naive.error());
+  WEFT_TRY(auto fins, device.create_render_pipeline({.label = "shell_fur.fins",
+                                               .layout = &layout,
+                                               .vertex = &*fin_vs,
+                                               .fragment = &*fin_fs,
+                                               .cull_mode = gpu::CullMode::None,
+                                               .color_targets = {{frame::scene_color_format}},
+                                               .depth_stencil = gpu::DepthStencilState{.format = frame::scene_depth_format}}));
+  WEFT_TRY(auto naive, pipeline("shell_fur.naive", *shell_vs, *naive_fs, frame::vertex_layout()));
   // The skin's depth pre-pass: the skin (instance N of shell.vert) pushed back by a few depth
   // steps, colour untouched (adding zero). Any bias keeps the image: it only lets through
   // fragments that the skin, drawn again at its exact depth, hides anyway.
-  auto skin_depth = device.create_render_pipeline(
-      {.label = "shell_fur.skin_depth",
-       .layout = &*layout,
-       .vertex = &*shell_vs,
-       .fragment = &*skin_fs,
-       .vertex_buffers = {frame::vertex_layout()},
-       .cull_mode = gpu::CullMode::None,
-       .color_targets = {{color_format, gpu::BlendMode::Additive}},
-       .depth_stencil = gpu::DepthStencilState{.format = depth_format, .depth_bias_constant = 4.0f, .depth_bias_slope = 1.0f}});
-  if (!skin_depth) return std::unexpected(skin_depth.error());
+  WEFT_TRY(auto skin_depth, device.create_render_pipeline(
+        {.label = "shell_fur.skin_depth",
+         .layout = &layout,
+         .vertex = &*shell_vs,
+         .fragment = &*skin_fs,
+         .vertex_buffers = {frame::vertex_layout()},
+         .cull_mode = gpu::CullMode::None,
+         .color_targets = {{frame::scene_color_format, gpu::BlendMode::Additive}},
+         .depth_stencil = gpu::DepthStencilState{.format = frame::scene_depth_format, .depth_bias_constant = 4.0f, .depth_bias_slope = 1.0f}}));
   auto mirror = device.create_sampler({.label = "fur.mirror", .mipmap_filter = gpu::FilterMode::Nearest,
                                        .address_mode = gpu::AddressMode::MirrorRepeat, .max_lod = 0.0f});
   auto repeat = device.create_sampler({.label = "fur.repeat", .mipmap_filter = gpu::FilterMode::Nearest,
@@ -181,8 +167,8 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
   for (auto* s : {&mirror, &repeat, &shadow})
     if (!*s) return std::unexpected(s->error());
   ShellFurPass pass;
-  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*layout), std::move(*shells),
-                                              std::move(*fins), std::move(*naive), std::move(*skin_depth), std::move(*mirror),
+  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(layout), std::move(shells),
+                                              std::move(fins), std::move(naive), std::move(skin_depth), std::move(*mirror),
                                               std::move(*repeat), std::move(*shadow)});
   return pass;
 }

@@ -48,7 +48,9 @@ import weft.image;
 import weft.scene;
 import weft.feature;
 
-export namespace weft::passes {
+// The CPU side (photo analysis, band table, shells, fins, the material) is weft::fur; the
+// graph pass is weft::passes::ShellFurPass, beside the other passes.
+export namespace weft::fur {
 
 // ---- precompute ------------------------------------------------------------------------
 
@@ -213,6 +215,14 @@ struct FurMaterial {
 // Reads material.params at material.json_path (paths against material.base_dir). Every
 // problem comes back in one Parse error naming "$.materials.<name>.<field>".
 [[nodiscard]] Result<FurMaterial> parse_fur_material(const scene::Material& material, Quality quality = Quality::Medium);
+
+}  // namespace weft::fur
+
+namespace weft::passes {
+using namespace fur;  // this unit's GPU declarations use the CPU side's types unqualified
+}
+
+export namespace weft::passes {
 
 // ---- GPU assets and the pass -------------------------------------------------------------
 

@@ -19,13 +19,6 @@ module;
 #include <nlohmann/json.hpp>
 #include <weft/try.h>
 module weft.pass.skin_sss;
-import weft.core;
-import weft.gpu;
-import weft.graph;
-import weft.frame;
-import weft.image;
-import weft.scene;
-import weft.feature;
 
 namespace weft::passes {
 
@@ -35,27 +28,35 @@ namespace {
 
 Result<gpu::Texture> upload_rgba8(gpu::Device& device, std::string_view label, std::uint32_t w, std::uint32_t h,
                                   gpu::Format format, std::span<const std::uint8_t> rgba) {
-  auto t = device.create_texture({.label = std::string(label), .size = {w, h, 1}, .format = format,
-                                  .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
-  if (!t) return std::unexpected(t.error());
-  if (auto ok = device.queue().write_texture(*t, std::as_bytes(rgba)); !ok) return std::unexpected(ok.error());
-  return std::move(*t);
+  WEFT_TRY(auto t, device.create_texture({.label = std::string(label), .size = {w, h, 1}, .format = format,
+                                    .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst}));
+  WEFT_TRY_VOID(device.queue().write_texture(t, std::as_bytes(rgba)));
+  return std::move(t);
 }
 
 Result<gpu::Texture> upload_lut(gpu::Device& device, const skin::SkinLut& lut) {
   std::vector<std::uint16_t> half(lut.texels.size() * 4);
   for (std::size_t i = 0; i < lut.texels.size(); ++i)
     for (int c = 0; c < 4; ++c) half[i * 4 + c] = glm::packHalf1x16(lut.texels[i][c]);
-  auto t = device.create_texture({.label = "skin_lut_" + hex64(lut.hash), .size = {lut.width, lut.height, 1},
-                                  .format = gpu::Format::RGBA16Float,
-                                  .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
-  if (!t) return std::unexpected(t.error());
-  if (auto ok = device.queue().write_texture(*t, std::as_bytes(std::span(half))); !ok) return std::unexpected(ok.error());
-  return std::move(*t);
+  WEFT_TRY(auto t, device.create_texture({.label = "skin_lut_" + hex64(lut.hash), .size = {lut.width, lut.height, 1},
+                                    .format = gpu::Format::RGBA16Float,
+                                    .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst}));
+  WEFT_TRY_VOID(device.queue().write_texture(t, std::as_bytes(std::span(half))));
+  return std::move(t);
 }
 
 class SkinFeature final : public FeaturePass {
  public:
+  // The factory the descriptor names: the graph pass first, then the feature around it.
+  static Result<std::unique_ptr<FeaturePass>> create(gpu::Device& device) {
+    WEFT_TRY(auto pass, SkinSSSPass::create(device));
+    const std::uint8_t white_texel[4] = {255, 255, 255, 255};
+    const std::uint8_t flat_texel[4] = {128, 128, 255, 255};
+    WEFT_TRY(auto white, upload_rgba8(device, "skin-white", 1, 1, gpu::Format::RGBA8Srgb, white_texel));
+    WEFT_TRY(auto flat, upload_rgba8(device, "skin-flat-normal", 1, 1, gpu::Format::RGBA8Unorm, flat_texel));
+    return std::make_unique<SkinFeature>(device, std::move(pass), std::move(white), std::move(flat));
+  }
+
   SkinFeature(gpu::Device& device, SkinSSSPass pass, gpu::Texture white, gpu::Texture flat)
       : device_(&device), pass_(std::move(pass)), white_(std::move(white)), flat_normal_(std::move(flat)) {}
 
@@ -66,36 +67,22 @@ class SkinFeature final : public FeaturePass {
     draws_.clear();
     frame_materials_.clear();
     frame_luts_.clear();
-    std::map<std::uint32_t, std::uint32_t> slot_of;  // scene material -> frame material slot
-    std::vector<std::string> problems;
-    for (std::uint32_t object_index : frame.objects) {
-      const scene::Object& object = frame.scene.objects.at(object_index);
-      auto slot = slot_of.find(object.material);
-      if (slot == slot_of.end()) {
-        auto material = material_for(frame.scene.materials.at(object.material), frame.quality);
-        if (!material) {
-          problems.push_back(material.error().message);
-          slot_of[object.material] = ~0u;
-          continue;
-        }
-        slot = slot_of.emplace(object.material, std::uint32_t(frame_materials_.size())).first;
-        frame_materials_.push_back(*material);
-        const gpu::Texture* lut = lut_textures_.at((*material)->params.lut.hash()).get();
-        if (std::find(frame_luts_.begin(), frame_luts_.end(), lut) == frame_luts_.end()) frame_luts_.push_back(lut);
-      }
-      if (slot->second == ~0u) continue;
-      const scene::Mesh& mesh = frame.scene.meshes.at(object.mesh);
-      const auto& params = frame_materials_[slot->second]->params;
-      if (!mesh.has_uvs() &&
-          (!params.albedo_texture.empty() || !params.normal_texture.empty() || !params.specular_texture.empty()))
-        warnings_.push_back(weft::format("skin object '{}': mesh '{}' has no UVs, so its textures sample one texel",
-                                         object.name, mesh.name));
-      draws_.push_back({frame.meshes[object.mesh], object.transform, slot->second});
-    }
-    if (!problems.empty()) {
-      std::string message = problems.front();
-      for (std::size_t i = 1; i < problems.size(); ++i) message += "\n" + problems[i];
-      return std::unexpected(Error{ErrorKind::Parse, std::move(message)});
+    WEFT_TRY_VOID(resolve_materials(
+        frame, frame_materials_,
+        [&](const scene::Material& material) { return material_for(material, frame.quality); },
+        [&](std::uint32_t object_index, std::uint32_t slot) {
+          const scene::Object& object = frame.scene.objects.at(object_index);
+          const scene::Mesh& mesh = frame.scene.meshes.at(object.mesh);
+          const auto& params = frame_materials_[slot]->params;
+          if (!mesh.has_uvs() &&
+              (!params.albedo_texture.empty() || !params.normal_texture.empty() || !params.specular_texture.empty()))
+            warnings_.push_back(weft::format("skin object '{}': mesh '{}' has no UVs, so its textures sample one texel",
+                                             object.name, mesh.name));
+          draws_.push_back({frame.meshes[object.mesh], object.transform, slot});
+        }));
+    for (const auto& material : frame_materials_) {
+      const gpu::Texture* lut = lut_textures_.at(material->params.lut.hash()).get();
+      if (std::find(frame_luts_.begin(), frame_luts_.end(), lut) == frame_luts_.end()) frame_luts_.push_back(lut);
     }
     if (frame.uniforms.light_color != vec4(0.0f)) {
       for (std::size_t i = 0; i < draws_.size(); ++i) {
@@ -125,27 +112,24 @@ class SkinFeature final : public FeaturePass {
     h.value(std::uint8_t(quality));
     const std::uint64_t key = h.digest();
     if (auto it = materials_.find(key); it != materials_.end()) return it->second;
-    auto parsed = skin::parse_skin_material(material, quality);
-    if (!parsed) return std::unexpected(parsed.error());
-    const std::uint64_t lut_key = parsed->lut.hash();
+    WEFT_TRY(auto parsed, skin::parse_skin_material(material, quality));
+    const std::uint64_t lut_key = parsed.lut.hash();
     if (!lut_textures_.contains(lut_key)) {
-      auto lut = skin::cached_lut(parsed->lut);
+      auto lut = skin::cached_lut(parsed.lut);
       if (!lut) return with_context(weft::format("skin material '{}'", material.name), lut.error());
-      auto texture = upload_lut(*device_, **lut);
-      if (!texture) return std::unexpected(texture.error());
-      lut_textures_.emplace(lut_key, std::make_unique<gpu::Texture>(std::move(*texture)));
+      WEFT_TRY(auto texture, upload_lut(*device_, **lut));
+      lut_textures_.emplace(lut_key, std::make_unique<gpu::Texture>(std::move(texture)));
     }
-    auto albedo = texture_for(parsed->albedo_texture, gpu::Format::RGBA8Srgb);
+    auto albedo = texture_for(parsed.albedo_texture, gpu::Format::RGBA8Srgb);
     if (!albedo) return with_context(weft::format("skin material '{}' albedo_texture", material.name), albedo.error());
-    auto normal = texture_for(parsed->normal_texture, gpu::Format::RGBA8Unorm);
+    auto normal = texture_for(parsed.normal_texture, gpu::Format::RGBA8Unorm);
     if (!normal) return with_context(weft::format("skin material '{}' normal_texture", material.name), normal.error());
-    auto specular = texture_for(parsed->specular_texture, gpu::Format::RGBA8Unorm);
+    auto specular = texture_for(parsed.specular_texture, gpu::Format::RGBA8Unorm);
     if (!specular) return with_context(weft::format("skin material '{}' specular_texture", material.name), specular.error());
-    auto gpu_material = pass_.create_material(*device_, *parsed, *lut_textures_.at(lut_key), *albedo ? **albedo : white_,
-                                              *normal ? **normal : flat_normal_, *specular ? **specular : white_);
-    if (!gpu_material) return std::unexpected(gpu_material.error());
-    materials_.emplace(key, *gpu_material);
-    return *gpu_material;
+    WEFT_TRY(auto gpu_material, pass_.create_material(*device_, parsed, *lut_textures_.at(lut_key), *albedo ? **albedo : white_,
+                                                *normal ? **normal : flat_normal_, *specular ? **specular : white_));
+    materials_.emplace(key, gpu_material);
+    return gpu_material;
   }
 
   // Brute-force diffuse per vertex for the key light (the reference mode), one vec4 per vertex,
@@ -167,16 +151,14 @@ class SkinFeature final : public FeaturePass {
     log::info(weft::format("skin reference: brute-force scattering on mesh '{}' ({} vertices)", mesh.name,
                            mesh.positions.size()));
     // The physical profile, as the references of docs/skin.md.
-    auto diffuse = skin::mesh_reference(mesh, {.towards_light = light, .mm_per_unit = mm_per_unit});
-    if (!diffuse) return std::unexpected(diffuse.error());
-    std::vector<vec4> texels(diffuse->size());
-    for (std::size_t i = 0; i < texels.size(); ++i) texels[i] = vec4((*diffuse)[i], 1.0f);
-    auto buffer = device_->create_buffer_with_data(
-        {.label = "skin_reference_" + mesh.name, .size = texels.size() * sizeof(vec4),
-         .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
-        std::as_bytes(std::span(texels)));
-    if (!buffer) return std::unexpected(buffer.error());
-    return references_.emplace(key, std::make_unique<gpu::Buffer>(std::move(*buffer))).first->second.get();
+    WEFT_TRY(auto diffuse, skin::mesh_reference(mesh, {.towards_light = light, .mm_per_unit = mm_per_unit}));
+    std::vector<vec4> texels(diffuse.size());
+    for (std::size_t i = 0; i < texels.size(); ++i) texels[i] = vec4((diffuse)[i], 1.0f);
+    WEFT_TRY(auto buffer, device_->create_buffer_with_data(
+          {.label = "skin_reference_" + mesh.name, .size = texels.size() * sizeof(vec4),
+           .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
+          std::as_bytes(std::span(texels))));
+    return references_.emplace(key, std::make_unique<gpu::Buffer>(std::move(buffer))).first->second.get();
   }
 
   // The texture at `path` (nullptr when the path is empty), loaded once.
@@ -184,18 +166,16 @@ class SkinFeature final : public FeaturePass {
     if (path.empty()) return nullptr;
     const std::string key = path.string() + (format == gpu::Format::RGBA8Srgb ? "#srgb" : "#linear");
     if (auto it = textures_.find(key); it != textures_.end()) return it->second.get();
-    auto img = image::load_ldr(path);
-    if (!img) return std::unexpected(img.error());
-    std::vector<std::uint8_t> rgba(std::size_t(img->width) * img->height * 4, 255);
-    for (std::size_t i = 0; i < std::size_t(img->width) * img->height; ++i) {
-      const std::uint8_t* p = &img->pixels[i * img->channels];
-      const bool gray = img->channels < 3;
+    WEFT_TRY(auto img, image::load_ldr(path));
+    std::vector<std::uint8_t> rgba(std::size_t(img.width) * img.height * 4, 255);
+    for (std::size_t i = 0; i < std::size_t(img.width) * img.height; ++i) {
+      const std::uint8_t* p = &img.pixels[i * img.channels];
+      const bool gray = img.channels < 3;
       for (int c = 0; c < 3; ++c) rgba[i * 4 + c] = gray ? p[0] : p[c];
-      if (img->channels == 4) rgba[i * 4 + 3] = p[3];
+      if (img.channels == 4) rgba[i * 4 + 3] = p[3];
     }
-    auto t = upload_rgba8(*device_, path.filename().string(), img->width, img->height, format, rgba);
-    if (!t) return std::unexpected(t.error());
-    return textures_.emplace(key, std::make_unique<gpu::Texture>(std::move(*t))).first->second.get();
+    WEFT_TRY(auto t, upload_rgba8(*device_, path.filename().string(), img.width, img.height, format, rgba));
+    return textures_.emplace(key, std::make_unique<gpu::Texture>(std::move(t))).first->second.get();
   }
 
   gpu::Device* device_;
@@ -214,62 +194,39 @@ class SkinFeature final : public FeaturePass {
 
 }  // namespace
 
-namespace {
-
-Result<std::unique_ptr<FeaturePass>> create_feature(gpu::Device& device) {
-  WEFT_TRY(auto pass, SkinSSSPass::create(device));
-  const std::uint8_t white_texel[4] = {255, 255, 255, 255};
-  const std::uint8_t flat_texel[4] = {128, 128, 255, 255};
-  WEFT_TRY(auto white, upload_rgba8(device, "skin-white", 1, 1, gpu::Format::RGBA8Srgb, white_texel));
-  WEFT_TRY(auto flat, upload_rgba8(device, "skin-flat-normal", 1, 1, gpu::Format::RGBA8Unorm, flat_texel));
-  return std::make_unique<SkinFeature>(device, std::move(pass), std::move(white), std::move(flat));
-}
-
-Result<void> check_material(const scene::Material& material) {
-  WEFT_TRY_VOID(skin::parse_skin_material(material));
-  return {};
-}
-
-}  // namespace
-
 // Quality picks lut.size and lut.samples (64/128, 256/256, 512/512, 1024/1024) and, at
 // reference, the brute-force mode (docs/skin.md, docs/tradeoffs.md).
 const FeatureDescriptor& skin_sss_feature() {
-  static const FeatureDescriptor feature = [] {
-    FeatureDescriptor d;
-    d.name = "skin_sss";
-    d.aliases = {"skin"};
-    d.summary = "pre-integrated subsurface scattering for skin (curvature-adaptive LUT)";
-    d.doc = "docs/skin.md";
-    d.check_material = &check_material;
-    d.create = &create_feature;
-    d.passes = {"skin_sss"};
-    d.knobs = {
-        integer_knob("lut.size", 2, 4096, {8, 16, 32, 64, 128, 256, 512, 1024}, "LUT texels per side (N.L by 1/r)"),
-        integer_knob("lut.samples", 2, 65536, {4, 8, 16, 32, 64, 128, 256, 1024}, "ring samples per Gaussian when baking"),
-        choice_knob("lut.range", {"penner", "adaptive", "full"}, "integration range around the ring"),
-        choice_knob("lut.quadrature", {"per-gaussian", "uniform"}, "one grid per Gaussian, or Penner's single grid"),
-        choice_knob("curvature", {"vertex", "screen"}, "1/r from the mesh per vertex, or from screen derivatives"),
-    };
-    // The stability sweep stops at the reference preset's 1024: 4096 texels and 65,536
-    // samples are a bake of hours.
-    d.knobs[0].extreme_max = 1024;
-    d.knobs[1].extreme_max = 1024;
-    d.preset_values = [](Quality q) -> nlohmann::json {
-      const auto p = skin::skin_quality_preset(q);
-      return {{"lut.size", p.lut_size}, {"lut.samples", p.lut_samples}, {"reference", p.reference}};
-    };
-    // The brute-force gather of d'Eon's profile over the mesh, per vertex, for the key light
-    // (skin::mesh_reference): the scattering the LUT approximates, without the ring model.
-    d.reference = {{"reference", true}};
-    d.reference_why = "\"reference\": true: brute-force scattering gathered over the mesh per vertex";
-    // Every LUT costs the same per frame (one texture, the same fetches): the knobs trade
-    // bake time, so the cost is the cold first frame with the LUT's disk cache off.
-    d.cost = CostAxis::ColdFrame;
-    d.environment = {{"WEFT_SKIN_LUT_CACHE", ""}};
-    d.clear_caches = &skin::clear_lut_memory_cache;
-    return d;
-  }();
+  static const FeatureDescriptor feature{
+      .name = "skin_sss", .aliases = {"skin"}, .doc = "docs/skin.md",
+      .summary = "pre-integrated subsurface scattering for skin (curvature-adaptive LUT)",
+      .check_material = check_by_parsing<&skin::parse_skin_material>, .create = &SkinFeature::create,
+      .passes = {"skin_sss"},
+      // The stability sweep stops at the reference preset's 1024: 4096 texels and 65,536
+      // samples are a bake of hours.
+      .knobs = {
+          with_extremes(integer_knob("lut.size", 2, 4096, {8, 16, 32, 64, 128, 256, 512, 1024}, "LUT texels per side (N.L by 1/r)"),
+                        std::nullopt, 1024),
+          with_extremes(integer_knob("lut.samples", 2, 65536, {4, 8, 16, 32, 64, 128, 256, 1024}, "ring samples per Gaussian when baking"),
+                        std::nullopt, 1024),
+          choice_knob("lut.range", {"penner", "adaptive", "full"}, "integration range around the ring"),
+          choice_knob("lut.quadrature", {"per-gaussian", "uniform"}, "one grid per Gaussian, or Penner's single grid"),
+          choice_knob("curvature", {"vertex", "screen"}, "1/r from the mesh per vertex, or from screen derivatives"),
+      },
+      .preset_values = [](Quality q) -> nlohmann::json {
+        const auto p = skin::skin_quality_preset(q);
+        return {{"lut.size", p.lut_size}, {"lut.samples", p.lut_samples}, {"reference", p.reference}};
+      },
+      // The brute-force gather of d'Eon's profile over the mesh, per vertex, for the key light
+      // (skin::mesh_reference): the scattering the LUT approximates, without the ring model.
+      .reference = {{"reference", true}},
+      .reference_why = "\"reference\": true: brute-force scattering gathered over the mesh per vertex",
+      // Every LUT costs the same per frame (one texture, the same fetches): the knobs trade
+      // bake time, so the cost is the cold first frame with the LUT's disk cache off.
+      .cost = CostAxis::ColdFrame,
+      .environment = {{"WEFT_SKIN_LUT_CACHE", ""}},
+      .clear_caches = &skin::clear_lut_memory_cache,
+  };
   return feature;
 }
 

@@ -10,11 +10,9 @@ module;
 #include <string_view>
 #include <utility>
 #include <glm/glm.hpp>
+#include <weft/try.h>
 #include <nlohmann/json.hpp>
 module weft.pass.skin_sss;
-import weft.core;
-import weft.scene;
-import weft.feature;
 
 namespace weft::skin {
 
@@ -70,53 +68,44 @@ SkinQualityPreset skin_quality_preset(Quality q) {
 }
 
 Result<SkinMaterial> parse_skin_material(const scene::Material& material, Quality quality) {
-  try {
-    SkinMaterial m;
-    const SkinQualityPreset q = skin_quality_preset(quality);
-    m.lut.width = m.lut.height = q.lut_size;
-    m.lut.samples = q.lut_samples;
-    m.reference = q.reference;
-    scene::JsonErrors errors;
-    const std::string path = material.json_path.empty() ? weft::format("$.materials.{}", material.name) : material.json_path;
-    scene::JsonReader r(material.params, path, errors, material.base_dir);
-    if (!r.is_object()) {
-      r.error(weft::format("a skin material is an object, got {}", scene::json_type_name(material.params)));
-    } else {
-      const scene::Range unit{.min = 0, .max = 1};
-      m.albedo = r.vec3_of("albedo", m.albedo, unit);
-      m.albedo_texture = r.path("albedo_texture");
-      m.normal_texture = r.path("normal_texture");
-      m.specular_texture = r.path("specular_texture");
-      m.normal_strength = float(r.number("normal_strength", m.normal_strength, {.min = 0, .max = 10}));
-      m.normal_blur = r.vec3_of("normal_blur", m.normal_blur, unit);
-      m.roughness = float(r.number("roughness", m.roughness, {.min = 0, .max = 1, .min_exclusive = true}));
-      m.specular = float(r.number("specular", m.specular, {.min = 0, .max = 10}));
-      m.mm_per_unit = float(r.number("mm_per_unit", m.mm_per_unit, {.min = 0, .max = 1e9, .min_exclusive = true}));
-      m.curvature_scale = float(r.number("curvature_scale", m.curvature_scale, {.min = 0, .max = 1000}));
-      m.curvature = read_choice_knob(r, *find_knob(passes::skin_sss_feature().knobs, "curvature"), "vertex") == "screen"
-                        ? CurvatureSource::Screen
-                        : CurvatureSource::Vertex;
-      m.transmittance = r.boolean("transmittance", m.transmittance);
-      m.transmittance_scale = float(r.number("transmittance_scale", m.transmittance_scale, {.min = 0, .max = 1000}));
-      m.transmittance_shrink_mm =
-          float(r.number("transmittance_shrink_mm", m.transmittance_shrink_mm, {.min = 0, .max = 1000}));
-      m.shadow_scatter_mm = float(r.number("shadow_scatter_mm", m.shadow_scatter_mm, {.min = 0, .max = 1000}));
-      const std::string debug =
-          r.string("debug_view", "none", {"none", "curvature", "diffuse", "transmittance", "thickness"});
-      for (DebugView d : {DebugView::None, DebugView::Curvature, DebugView::Diffuse, DebugView::Transmittance,
-                          DebugView::Thickness})
-        if (to_string(d) == debug) m.debug_view = d;
-      m.reference = r.boolean("reference", m.reference);
-      if (auto lut = r.object("lut")) read_lut(*lut, m.lut);
-      r.finish();
-    }
-    if (!errors.empty()) return std::unexpected(errors.to_error(weft::format("skin material '{}'", material.name)));
-    if (auto ok = validate(m.lut); !ok)
-      return with_context(weft::format("skin material '{}' ({}.lut)", material.name, path), ok.error());
-    return m;
-  } catch (const std::exception& e) {
-    return fail(ErrorKind::Parse, "skin material '{}': {}", material.name, e.what());
+  SkinMaterial m;
+  const SkinQualityPreset q = skin_quality_preset(quality);
+  m.lut.width = m.lut.height = q.lut_size;
+  m.lut.samples = q.lut_samples;
+  m.reference = q.reference;
+  WEFT_TRY_VOID(read_material_fields(material, "skin", [&](scene::JsonReader& r) {
+    const scene::Range unit{.min = 0, .max = 1};
+    m.albedo = r.vec3_of("albedo", m.albedo, unit);
+    m.albedo_texture = r.path("albedo_texture");
+    m.normal_texture = r.path("normal_texture");
+    m.specular_texture = r.path("specular_texture");
+    m.normal_strength = float(r.number("normal_strength", m.normal_strength, {.min = 0, .max = 10}));
+    m.normal_blur = r.vec3_of("normal_blur", m.normal_blur, unit);
+    m.roughness = float(r.number("roughness", m.roughness, {.min = 0, .max = 1, .min_exclusive = true}));
+    m.specular = float(r.number("specular", m.specular, {.min = 0, .max = 10}));
+    m.mm_per_unit = float(r.number("mm_per_unit", m.mm_per_unit, {.min = 0, .max = 1e9, .min_exclusive = true}));
+    m.curvature_scale = float(r.number("curvature_scale", m.curvature_scale, {.min = 0, .max = 1000}));
+    m.curvature = read_choice_knob(r, *find_knob(passes::skin_sss_feature().knobs, "curvature"), "vertex") == "screen"
+                      ? CurvatureSource::Screen
+                      : CurvatureSource::Vertex;
+    m.transmittance = r.boolean("transmittance", m.transmittance);
+    m.transmittance_scale = float(r.number("transmittance_scale", m.transmittance_scale, {.min = 0, .max = 1000}));
+    m.transmittance_shrink_mm =
+        float(r.number("transmittance_shrink_mm", m.transmittance_shrink_mm, {.min = 0, .max = 1000}));
+    m.shadow_scatter_mm = float(r.number("shadow_scatter_mm", m.shadow_scatter_mm, {.min = 0, .max = 1000}));
+    const std::string debug =
+        r.string("debug_view", "none", {"none", "curvature", "diffuse", "transmittance", "thickness"});
+    for (DebugView d : {DebugView::None, DebugView::Curvature, DebugView::Diffuse, DebugView::Transmittance,
+                        DebugView::Thickness})
+      if (to_string(d) == debug) m.debug_view = d;
+    m.reference = r.boolean("reference", m.reference);
+    if (auto lut = r.object("lut")) read_lut(*lut, m.lut);
+  }));
+  if (auto ok = validate(m.lut); !ok) {
+    const std::string path = material.json_path.empty() ? "$.materials." + material.name : material.json_path;
+    return with_context(weft::format("skin material '{}' ({}.lut)", material.name, path), ok.error());
   }
+  return m;
 }
 
 }  // namespace weft::skin

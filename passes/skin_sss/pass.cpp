@@ -20,19 +20,10 @@ module;
 #include <weft/try.h>
 #include "weft_pass_skin_sss_shaders.h"
 module weft.pass.skin_sss;
-import weft.core;
-import weft.gpu;
-import weft.graph;
-import weft.frame;
-import weft.image;
-import weft.scene;
-import weft.feature;
 
 namespace weft::passes {
 
 namespace {
-constexpr gpu::Format color_format = frame::scene_color_format;
-constexpr gpu::Format depth_format = frame::scene_depth_format;
 
 // Matches `Draw` in skin_common.glsl.
 struct SkinConstants {
@@ -90,7 +81,7 @@ Result<SkinSSSPass> SkinSSSPass::create(gpu::Device& device) {
   WEFT_TRY(auto layout, device.create_pipeline_layout({.label = "skin",
                                                        .bind_group_layouts = {&frame_layout, &material_layout, &reference_layout},
                                                        .push_constant_size = sizeof(SkinConstants)}));
-  WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipeline(device, "skin", layout, vs, fs, color_format, depth_format));
+  WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipeline(device, "skin", layout, vs, fs, frame::scene_color_format, frame::scene_depth_format));
   WEFT_TRY(auto shadow_compare, frame::create_shadow_compare_sampler(device, "skin-shadow-compare"));
   WEFT_TRY(auto shadow_depth, device.create_sampler({.label = "skin-shadow-depth", .mag_filter = gpu::FilterMode::Nearest,
                                                      .min_filter = gpu::FilterMode::Nearest,
@@ -110,14 +101,13 @@ Result<std::shared_ptr<SkinGpuMaterial>> SkinSSSPass::create_material(gpu::Devic
                                                                       const gpu::Texture& lut, const gpu::Texture& albedo,
                                                                       const gpu::Texture& normal,
                                                                       const gpu::Texture& specular) const {
-  auto group = device.create_bind_group({.label = "skin-material",
-                                         .layout = &state_->material_layout,
-                                         .entries = {gpu::bind(0, lut.view(), &state_->lut),
-                                                     gpu::bind(1, albedo.view(), &state_->texture),
-                                                     gpu::bind(2, normal.view(), &state_->texture),
-                                                     gpu::bind(3, specular.view(), &state_->texture)}});
-  if (!group) return std::unexpected(group.error());
-  auto out = std::make_shared<SkinGpuMaterial>(SkinGpuMaterial{material, std::move(*group), 0});
+  WEFT_TRY(auto group, device.create_bind_group({.label = "skin-material",
+                                           .layout = &state_->material_layout,
+                                           .entries = {gpu::bind(0, lut.view(), &state_->lut),
+                                                       gpu::bind(1, albedo.view(), &state_->texture),
+                                                       gpu::bind(2, normal.view(), &state_->texture),
+                                                       gpu::bind(3, specular.view(), &state_->texture)}}));
+  auto out = std::make_shared<SkinGpuMaterial>(SkinGpuMaterial{material, std::move(group), 0});
   if (!material.albedo_texture.empty()) out->flags |= flag_albedo_map;
   if (!material.normal_texture.empty()) out->flags |= flag_normal_map;
   if (!material.specular_texture.empty()) out->flags |= flag_specular_map;

@@ -6,9 +6,6 @@ module;
 #include <weft/try.h>
 #include "weft_pass_tonemap_shaders.h"
 module weft.base_pass.tonemap;
-import weft.core;
-import weft.gpu;
-import weft.graph;
 import weft.frame;
 
 namespace weft::passes {
@@ -28,23 +25,17 @@ struct Push {
 }  // namespace
 
 Result<TonemapPass> TonemapPass::create(gpu::Device& device) {
-  auto vs = device.create_shader_module({.label = "fullscreen.vert", .stage = gpu::ShaderStage::Vertex, .spirv = frame::fullscreen_vertex_spirv()});
-  if (!vs) return std::unexpected(vs.error());
-  auto fs = device.create_shader_module({.label = "tonemap.frag", .stage = gpu::ShaderStage::Fragment, .spirv = shaders::tonemap_frag()});
-  if (!fs) return std::unexpected(fs.error());
-  auto bind_layout = device.create_bind_group_layout(
-      {.label = "tonemap", .entries = {{0, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}});
-  if (!bind_layout) return std::unexpected(bind_layout.error());
-  auto layout = device.create_pipeline_layout({.label = "tonemap", .bind_group_layouts = {&*bind_layout}, .push_constant_size = sizeof(Push)});
-  if (!layout) return std::unexpected(layout.error());
-  auto pipeline = device.create_render_pipeline({.label = "tonemap", .layout = &*layout, .vertex = &*vs, .fragment = &*fs,
-                                                 .color_targets = {{output_format}}});
-  if (!pipeline) return std::unexpected(pipeline.error());
-  auto sampler = device.create_sampler({.label = "tonemap", .mag_filter = gpu::FilterMode::Nearest, .min_filter = gpu::FilterMode::Nearest});
-  if (!sampler) return std::unexpected(sampler.error());
+  WEFT_TRY(auto vs, device.create_shader_module({.label = "fullscreen.vert", .stage = gpu::ShaderStage::Vertex, .spirv = frame::fullscreen_vertex_spirv()}));
+  WEFT_TRY(auto fs, device.create_shader_module({.label = "tonemap.frag", .stage = gpu::ShaderStage::Fragment, .spirv = shaders::tonemap_frag()}));
+  WEFT_TRY(auto bind_layout, device.create_bind_group_layout(
+        {.label = "tonemap", .entries = {{0, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}}));
+  WEFT_TRY(auto layout, device.create_pipeline_layout({.label = "tonemap", .bind_group_layouts = {&bind_layout}, .push_constant_size = sizeof(Push)}));
+  WEFT_TRY(auto pipeline, device.create_render_pipeline({.label = "tonemap", .layout = &layout, .vertex = &vs, .fragment = &fs,
+                                                   .color_targets = {{output_format}}}));
+  WEFT_TRY(auto sampler, device.create_sampler({.label = "tonemap", .mag_filter = gpu::FilterMode::Nearest, .min_filter = gpu::FilterMode::Nearest}));
   TonemapPass pass;
-  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(*layout), std::move(*pipeline),
-                                              std::move(*sampler)});
+  pass.state_ = std::make_shared<State>(State{std::move(bind_layout), std::move(layout), std::move(pipeline),
+                                              std::move(sampler)});
   return pass;
 }
 

@@ -576,6 +576,11 @@ TEST_CASE("mesh files: inputs that hang, exhaust or abort OpenMesh's readers are
   SUBCASE("an OFF file that ends after its keyword (OpenMesh reads garbage counts)") {
     refused("keyword.off", "OFF\n", "vertex count");
   }
+  SUBCASE("an empty OFF whose counts share the keyword's line (OpenMesh never returns; fuzz_off)") {
+    refused("empty_same_line.off", "OFF 0 0 0\n", "the mesh is empty: 0 vertices, 0 faces");
+    refused("empty_fuzzed.off", "OFF 0 0  1 2 (2\n", "the mesh is empty");
+    refused("no_faces.off", "OFF\n1 0 0\n0 0 0\n", "the mesh is empty: 1 vertices, 0 faces");
+  }
   SUBCASE("an OFF face whose index runs into the next face's count") {
     refused("run_on.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2-3 0 2 1\n3 0 1 2\n", "not a vertex index");
   }

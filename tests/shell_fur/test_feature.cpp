@@ -27,7 +27,7 @@ std::filesystem::path work_dir() {
   static const auto dir = [] {
     auto d = std::filesystem::temp_directory_path() / ("weft-fur-" + std::to_string(::getpid()));
     std::filesystem::create_directories(d);
-    REQUIRE(image::save_png(d / "photo.png", passes::synthesize_fur_photo({.width = 64, .height = 64})));
+    REQUIRE(image::save_png(d / "photo.png", fur::synthesize_fur_photo({.width = 64, .height = 64})));
     // A quad without texture coordinates.
     std::ofstream(d / "no_uvs.obj") << "v -0.5 0 -0.5\nv 0.5 0 -0.5\nv 0.5 0 0.5\nv -0.5 0 0.5\nvn 0 1 0\n"
                                        "f 1//1 3//1 2//1\nf 1//1 4//1 3//1\n";

@@ -22,6 +22,7 @@ import weft.pass.shell_fur;
 
 using namespace weft;
 using namespace weft::passes;
+using namespace weft::fur;
 
 namespace {
 

@@ -26,6 +26,7 @@ import weft.test.gpu;
 
 using namespace weft;
 using namespace weft::passes;
+using namespace weft::fur;
 
 namespace {
 

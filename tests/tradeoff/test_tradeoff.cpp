@@ -103,7 +103,7 @@ TEST_CASE("the catalogue has all four features; knobs and references are valid v
     for (Quality q : {Quality::Low, Quality::Medium, Quality::High, Quality::Reference}) CHECK(s.preset_values(q).is_object());
   }
   // The presets the study measures are the ones the passes use.
-  CHECK(study("fur").preset_values(Quality::High).at("layers") == passes::fur_layers_for(Quality::High));
+  CHECK(study("fur").preset_values(Quality::High).at("layers") == fur::fur_layers_for(Quality::High));
   CHECK(study("skin").preset_values(Quality::Low).at("lut.size") == skin::skin_quality_preset(Quality::Low).lut_size);
   CHECK(study("ssdf").preset_values(Quality::Low).at("lobes") == ssdf::ssdf_quality_preset(Quality::Low).lobes);
   CHECK(study("btf").preset_values(Quality::High).at("filter") == "bilinear");

@@ -10,10 +10,6 @@ module;
 #include <weft/try.h>
 #include "custom_toon_shaders.h"
 module custom.toon;
-import weft.core;
-import weft.gpu;
-import weft.graph;
-import weft.frame;
 
 namespace custom {
 
