@@ -10,10 +10,12 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -121,7 +123,7 @@ std::string radiance_stream_error(const std::uint8_t* data, std::size_t size) {
   if (!next_line()) return {};
   do {
     if (!next_line()) return {};
-  } while (!line.empty());
+  } while (!line.empty() && line[0] != '\0');  // stb reads lines as C strings: "\0..." ends the header too
   if (!next_line()) return {};
   int h = 0, w = 0;
   if (std::sscanf(line.c_str(), "-Y %d +X %d", &h, &w) != 2 || h <= 0 || w <= 0) return {};
@@ -187,12 +189,128 @@ Decoded<T> take_stb_pixels(T* pixels, int w, int h, int c) {
   return out;
 }
 
+// Debian 12's stb_image (git 2022-09-08) builds a JPEG Huffman table without checking that
+// its 16 code counts sum to at most 256, and then writes past the 257-entry tables (found by
+// fuzz_jpg under UBSan; upstream fixed it in 2023). This walks the JPEG's marker segments,
+// entropy-coded data included, and refuses such a table before stb sees it.
+std::string jpeg_stream_error(const std::uint8_t* data, std::size_t size) {
+  if (size < 2 || data[0] != 0xFF || data[1] != 0xD8) return {};  // not a JPEG: stb decides
+  std::size_t at = 2;
+  while (at + 4 <= size) {
+    if (data[at] != 0xFF) {  // entropy-coded data: skip to the next marker (0xFF, then not 00 / RSTn / FF)
+      ++at;
+      continue;
+    }
+    const std::uint8_t marker = data[at + 1];
+    if (marker == 0x00 || marker == 0xFF || (marker >= 0xD0 && marker <= 0xD8) || marker == 0x01) {  // no length
+      ++at;
+      continue;
+    }
+    if (marker == 0xD9) break;  // end of image
+    const std::size_t length = std::size_t(data[at + 2]) << 8 | data[at + 3];
+    if (length < 2) return "JPEG segment at byte " + std::to_string(at) + " has a length below 2";
+    const std::size_t end = std::min(size, at + 2 + length);
+    if (marker == 0xC4) {  // DHT: tables of (class/id, 16 counts, symbols)
+      std::size_t t = at + 4;
+      while (t + 17 <= end) {
+        std::size_t codes = 0;
+        for (std::size_t i = 1; i <= 16; ++i) codes += data[t + i];
+        if (codes > 256)
+          return "JPEG Huffman table at byte " + std::to_string(t) + " declares " + std::to_string(codes) +
+                 " codes (at most 256)";
+        t += 17 + codes;
+      }
+    }
+    at = end;
+  }
+  return {};
+}
+
+// The same stb_image passes a null pointer to memcpy for a zero-length IDAT chunk (UB that
+// UBSan reports; harmless in practice, but a fuzzed reader must be clean). A zero-length IDAT
+// adds no data, so such chunks are dropped from a copy before decoding.
+std::vector<std::uint8_t> png_without_empty_idat(const std::uint8_t* data, std::size_t size) {
+  std::vector<std::uint8_t> out;
+  if (!is_png(data, size)) return out;
+  bool empty_idat = false;
+  for (std::size_t at = 8; at + 12 <= size;) {
+    const std::size_t length = std::size_t(data[at]) << 24 | std::size_t(data[at + 1]) << 16 |
+                               std::size_t(data[at + 2]) << 8 | data[at + 3];
+    if (length == 0 && std::memcmp(data + at + 4, "IDAT", 4) == 0) empty_idat = true;
+    if (length > size - at - 12) break;
+    at += 12 + length;
+  }
+  if (!empty_idat) return out;
+  out.assign(data, data + 8);
+  std::size_t at = 8;
+  while (at + 12 <= size) {
+    const std::size_t length = std::size_t(data[at]) << 24 | std::size_t(data[at + 1]) << 16 |
+                               std::size_t(data[at + 2]) << 8 | data[at + 3];
+    const std::size_t chunk = length > size - at - 12 ? size - at : 12 + length;
+    if (!(length == 0 && std::memcmp(data + at + 4, "IDAT", 4) == 0)) out.insert(out.end(), data + at, data + at + chunk);
+    at += chunk;
+  }
+  out.insert(out.end(), data + at, data + size);
+  return out;
+}
+
+// tinyexr trusts an attribute's stated size for the fixed-size types (it reads a "tiles"
+// tiledesc as 9 bytes whatever its size says: a heap over-read found by fuzz_skin_lut_cache).
+// This walks a single-part header's attributes (name, type, size, value; an empty name ends
+// it) and refuses one that runs past the file or whose size does not match its type.
+std::string exr_header_error(const std::uint8_t* data, std::size_t size) {
+  static constexpr std::pair<std::string_view, std::size_t> fixed_sizes[] = {
+      {"box2i", 16}, {"box2f", 16}, {"v2i", 8},   {"v2f", 8},         {"v3i", 12},      {"v3f", 12},
+      {"int", 4},    {"float", 4},  {"double", 8}, {"compression", 1}, {"lineOrder", 1}, {"tiledesc", 9},
+      {"m33f", 36},  {"m44f", 64},  {"rational", 8}, {"timecode", 8}, {"keycode", 28},  {"envmap", 1},
+      {"chromaticities", 32}};
+  std::size_t at = 8;  // magic and version
+  const auto cstring = [&](std::string_view what, std::string& out) -> std::string {
+    const std::size_t limit = std::min(size, at + 256);
+    std::size_t end = at;
+    while (end < limit && data[end] != 0) ++end;
+    if (end >= limit) return "the header's attribute " + std::string(what) + " at byte " + std::to_string(at) +
+                             " is not a string of at most 255 bytes";
+    out.assign(reinterpret_cast<const char*>(data) + at, end - at);
+    at = end + 1;
+    return {};
+  };
+  while (at < size) {
+    std::string name, type;
+    if (std::string why = cstring("name", name); !why.empty()) return why;
+    if (name.empty()) return {};  // end of the header
+    if (std::string why = cstring("type", type); !why.empty()) return why;
+    if (size - at < 4) return "attribute '" + name + "' is cut off before its size";
+    std::int32_t length = 0;
+    std::memcpy(&length, data + at, 4);
+    at += 4;
+    if (length < 0 || std::size_t(length) > size - at)
+      return "attribute '" + name + "' says it has " + std::to_string(length) + " bytes, the file has " +
+             std::to_string(size - at) + " left";
+    for (const auto& [fixed_type, bytes] : fixed_sizes)
+      if (type == fixed_type && std::size_t(length) != bytes)
+        return "attribute '" + name + "' of type " + type + " has " + std::to_string(length) + " bytes (a " + type +
+               " has " + std::to_string(bytes) + ")";
+    at += std::size_t(length);
+  }
+  return "the header has no end (no empty attribute name)";
+}
+
 Decoded<std::uint8_t> decode_ldr(const std::uint8_t* data, std::size_t size) {
   Decoded<std::uint8_t> out;
   if (size > static_cast<std::size_t>(INT32_MAX)) {
     out.error = "file is larger than 2 GiB";
     out.unsupported = true;
     return out;
+  }
+  if (std::string why = jpeg_stream_error(data, size); !why.empty()) {
+    out.error = std::move(why);
+    return out;
+  }
+  const std::vector<std::uint8_t> cleaned = png_without_empty_idat(data, size);
+  if (!cleaned.empty()) {
+    data = cleaned.data();
+    size = cleaned.size();
   }
   int w = 0, h = 0, c = 0;
   stbi_uc* pixels = stbi_load_from_memory(data, static_cast<int>(size), &w, &h, &c, 0);
@@ -229,6 +347,10 @@ Decoded<float> decode_exr(const std::uint8_t* data, std::size_t size) {
     out.unsupported = true;
     return out;
   }
+  if (std::string why = exr_header_error(data, size); !why.empty()) {
+    out.error = std::move(why);
+    return out;
+  }
   ExrGuard exr;
   const char* err = nullptr;
   ret = ParseEXRHeaderFromMemory(&exr.header, &version, data, size, &err);
@@ -244,6 +366,17 @@ Decoded<float> decode_exr(const std::uint8_t* data, std::size_t size) {
     if (exr.header.channels[i].x_sampling != 1 || exr.header.channels[i].y_sampling != 1) {
       out.error = std::string("sub-sampled channel '") + exr.header.channels[i].name + "' is not supported";
       out.unsupported = true;
+      return out;
+    }
+  }
+  // tinyexr computes a window's width as max - min + 1 in int: a window near INT_MIN overflows
+  // (UB, found by fuzz_exr). weft reads images up to 2^24 pixels a side.
+  for (const EXRBox2i* box : {&exr.header.data_window, &exr.header.display_window}) {
+    const std::int64_t w = std::int64_t(box->max_x) - box->min_x + 1, h = std::int64_t(box->max_y) - box->min_y + 1;
+    if (w < 1 || h < 1 || w > (1 << 24) || h > (1 << 24)) {
+      out.error = std::string(box == &exr.header.data_window ? "data" : "display") + " window (" +
+                  std::to_string(box->min_x) + ", " + std::to_string(box->min_y) + ") - (" + std::to_string(box->max_x) +
+                  ", " + std::to_string(box->max_y) + ") is not 1 to 16,777,216 pixels a side";
       return out;
     }
   }

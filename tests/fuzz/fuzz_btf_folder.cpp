@@ -26,7 +26,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   std::error_code ec;
   std::filesystem::remove_all(folder, ec);
   const auto* bytes = data + newline + 1;
-  weft_fuzz::write_input("btf/" + name, bytes, size - newline - 1);
+  if (weft_fuzz::write_input("btf/" + name, bytes, size - newline - 1).empty()) return 0;
   weft_fuzz::expect_clean(weft::btf::load_btf(folder));
   return 0;
 }

@@ -17,6 +17,7 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <tinyexr.h>  // declarations only: to write a tiled EXR, which weft.image never writes
@@ -835,4 +836,101 @@ TEST_CASE("randomly corrupted PNG, HDR and EXR files decode or fail with Parse/U
     }
     CHECK(failed > 0);
   }
+}
+
+// ---- what fuzzing found in the codecs weft builds on (issue 21) ------------------------------
+
+namespace {
+std::size_t find_bytes(const std::vector<std::uint8_t>& haystack, std::string_view needle) {
+  const auto it = std::search(haystack.begin(), haystack.end(), needle.begin(), needle.end(),
+                              [](std::uint8_t a, char b) { return a == static_cast<std::uint8_t>(b); });
+  return it == haystack.end() ? std::string::npos : static_cast<std::size_t>(it - haystack.begin());
+}
+}  // namespace
+
+TEST_CASE("a JPEG Huffman table with more than 256 codes is refused before stb_image writes past its table") {
+  TempDir dir;
+  const fs::path p = dir / "ok.jpg";
+  REQUIRE(weft::image::save_jpeg(p, pattern8(16, 16, 3)));
+  auto bytes = read_all(p);
+  REQUIRE(weft::image::decode_ldr(bytes, "ok.jpg"));
+  const std::size_t dht = find_bytes(bytes, std::string_view("\xFF\xC4", 2));
+  REQUIRE(dht != std::string::npos);
+  // The first table's 16 counts follow the marker, the length and the class/id byte; making
+  // the last count 255 takes the table past 256 codes.
+  bytes[dht + 5 + 15] = 255;
+  const auto refused = weft::image::decode_ldr(bytes, "bad.jpg");
+  REQUIRE_FALSE(refused);
+  CHECK_MESSAGE(refused.error().message.find("Huffman table") != std::string::npos, refused.error().message);
+  CHECK_MESSAGE(refused.error().message.find("at most 256") != std::string::npos, refused.error().message);
+}
+
+TEST_CASE("a PNG with a zero-length IDAT chunk decodes to the same pixels as without it") {
+  TempDir dir;
+  const fs::path p = dir / "ok.png";
+  const Image8 img = pattern8(5, 4, 4);
+  REQUIRE(weft::image::save_png(p, img));
+  auto bytes = read_all(p);
+  const std::size_t idat = find_bytes(bytes, "IDAT");
+  REQUIRE(idat != std::string::npos);
+  // length 0, "IDAT", CRC-32 of "IDAT" (0x35AF061E), inserted before the real IDAT chunk.
+  const std::vector<std::uint8_t> empty_idat = {0, 0, 0, 0, 'I', 'D', 'A', 'T', 0x35, 0xAF, 0x06, 0x1E};
+  bytes.insert(bytes.begin() + static_cast<std::ptrdiff_t>(idat - 4), empty_idat.begin(), empty_idat.end());
+  const auto decoded = weft::image::decode_ldr(bytes, "empty_idat.png");
+  REQUIRE(decoded);
+  CHECK(decoded->pixels == img.pixels);
+}
+
+TEST_CASE("a Radiance file whose header ends in a NUL line and whose RLE stops short fails instead of hanging") {
+  TempDir dir;
+  const std::string header = std::string("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n") + '\0' + "\n-Y 1 +X 8\n";
+  SUBCASE("scanline header, then nothing") {
+    std::vector<std::uint8_t> bytes(header.begin(), header.end());
+    for (std::uint8_t b : {2, 2, 0, 8}) bytes.push_back(b);
+    write_all(dir / "cut.hdr", bytes);
+    const auto r = weft::image::load_hdr(dir / "cut.hdr");
+    REQUIRE_FALSE(r);
+    CHECK_MESSAGE(r.error().message.find("truncated") != std::string::npos, r.error().message);
+  }
+  SUBCASE("a run of length zero") {
+    std::vector<std::uint8_t> bytes(header.begin(), header.end());
+    for (std::uint8_t b : {2, 2, 0, 8, 0, 0, 0}) bytes.push_back(b);
+    write_all(dir / "zero.hdr", bytes);
+    const auto r = weft::image::load_hdr(dir / "zero.hdr");
+    REQUIRE_FALSE(r);
+    CHECK_MESSAGE(r.error().message.find("zero-length run") != std::string::npos, r.error().message);
+  }
+}
+
+TEST_CASE("an EXR data window near INT_MIN is refused before tinyexr overflows computing its width") {
+  TempDir dir;
+  const fs::path p = dir / "ok.exr";
+  REQUIRE(weft::image::save_exr(p, pattern(4, 3, 3)));
+  auto bytes = read_all(p);
+  // The attribute: "dataWindow\0box2i\0", its size (16), then min_x, min_y, max_x, max_y.
+  const std::size_t at = find_bytes(bytes, std::string_view("dataWindow\0box2i\0", 17));
+  REQUIRE(at != std::string::npos);
+  const std::int32_t min_x = std::numeric_limits<std::int32_t>::min();
+  std::memcpy(bytes.data() + at + 17 + 4, &min_x, 4);
+  write_all(dir / "bad.exr", bytes);
+  const auto r = weft::image::load_exr(dir / "bad.exr");
+  REQUIRE_FALSE(r);
+  CHECK_MESSAGE(r.error().message.find("data window") != std::string::npos, r.error().message);
+}
+
+TEST_CASE("an EXR attribute whose size does not match its type is refused before tinyexr reads past it") {
+  TempDir dir;
+  const fs::path p = dir / "ok.exr";
+  REQUIRE(weft::image::save_exr(p, pattern(4, 3, 3)));
+  auto bytes = read_all(p);
+  REQUIRE(weft::image::load_exr(p));
+  const std::size_t at = find_bytes(bytes, std::string_view("compression\0compression\0", 24));
+  REQUIRE(at != std::string::npos);
+  const std::int32_t two = 2;  // a compression attribute is one byte
+  std::memcpy(bytes.data() + at + 24, &two, 4);
+  write_all(dir / "bad.exr", bytes);
+  const auto r = weft::image::load_exr(dir / "bad.exr");
+  REQUIRE_FALSE(r);
+  CHECK_MESSAGE(r.error().message.find("attribute 'compression' of type compression has 2 bytes") != std::string::npos,
+                r.error().message);
 }
