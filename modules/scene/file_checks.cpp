@@ -313,14 +313,20 @@ Result<void> check_off(const std::filesystem::path& path) {
   if (keyword.find('n') != std::string_view::npos) (void)next_word();  // the dimension of nOFF
   std::size_t counts[3] = {0, 0, 0};
   int c = 0;
+  std::size_t counts_start = 0;
   for (const char* what : {"vertex", "face", "edge"}) {
     const std::string_view word = next_word();
+    if (c == 0) counts_start = pos - word.size();
     if (word.empty() || word.size() > 10 || !std::all_of(word.begin(), word.end(), [](char ch) { return ch >= '0' && ch <= '9'; })) {
       return bad(fmt::format("expected the {} count, got '{}'", what, word.substr(0, 20)));
     }
     counts[c] = std::stoull(std::string(word));
     if (counts[c++] > bytes->size()) return bad(fmt::format("the {} count is larger than the file could hold", what));
   }
+  // OpenMesh reads the three counts from one line; spread over two it reads other numbers as
+  // counts and never returns ("OFF 1\n1 5\n...": found by fuzz_off).
+  if (text.substr(counts_start, pos - counts_start).find('\n') != std::string_view::npos)
+    return bad("the vertex, face and edge counts must stand on one line");
   // An empty mesh is of no use to a scene, and OpenMesh's reader never returns from one whose
   // counts share the keyword's line with nothing after it ("OFF 0 0 0\n": found by fuzz_off).
   if (counts[0] == 0 || counts[1] == 0)

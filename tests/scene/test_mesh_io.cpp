@@ -581,6 +581,9 @@ TEST_CASE("mesh files: inputs that hang, exhaust or abort OpenMesh's readers are
     refused("empty_fuzzed.off", "OFF 0 0  1 2 (2\n", "the mesh is empty");
     refused("no_faces.off", "OFF\n1 0 0\n0 0 0\n", "the mesh is empty: 1 vertices, 0 faces");
   }
+  SUBCASE("OFF counts spread over two lines (OpenMesh reads other numbers as counts and never returns)") {
+    refused("split_counts.off", "OFF 3\n1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", "must stand on one line");
+  }
   SUBCASE("an OFF face whose index runs into the next face's count") {
     refused("run_on.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2-3 0 2 1\n3 0 1 2\n", "not a vertex index");
   }
