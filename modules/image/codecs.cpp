@@ -210,15 +210,21 @@ std::string jpeg_stream_error(const std::uint8_t* data, std::size_t size) {
     const std::size_t length = std::size_t(data[at + 2]) << 8 | data[at + 3];
     if (length < 2) return "JPEG segment at byte " + std::to_string(at) + " has a length below 2";
     const std::size_t end = std::min(size, at + 2 + length);
-    if (marker == 0xC4) {  // DHT: tables of (class/id, 16 counts, symbols)
+    if (marker == 0xC4) {  // DHT: tables of (class/id, 16 counts, symbols), read as stb reads them:
+      // table after table while the declared length lasts, even past the segment's end, and
+      // zeros past the end of the file.
+      const auto byte = [&](std::size_t i) -> std::size_t { return i < size ? data[i] : 0; };
+      std::ptrdiff_t left = std::ptrdiff_t(length) - 2;
       std::size_t t = at + 4;
-      while (t + 17 <= end) {
+      while (left > 0) {
+        if ((byte(t) >> 4) > 1 || (byte(t) & 15) > 3) break;  // stb refuses the table
         std::size_t codes = 0;
-        for (std::size_t i = 1; i <= 16; ++i) codes += data[t + i];
+        for (std::size_t i = 1; i <= 16; ++i) codes += byte(t + i);
         if (codes > 256)
           return "JPEG Huffman table at byte " + std::to_string(t) + " declares " + std::to_string(codes) +
                  " codes (at most 256)";
         t += 17 + codes;
+        left -= std::ptrdiff_t(17 + codes);
       }
     }
     at = end;
@@ -232,68 +238,21 @@ std::string jpeg_stream_error(const std::uint8_t* data, std::size_t size) {
 std::vector<std::uint8_t> png_without_empty_idat(const std::uint8_t* data, std::size_t size) {
   std::vector<std::uint8_t> out;
   if (!is_png(data, size)) return out;
-  bool empty_idat = false;
-  for (std::size_t at = 8; at + 12 <= size;) {
-    const std::size_t length = std::size_t(data[at]) << 24 | std::size_t(data[at + 1]) << 16 |
-                               std::size_t(data[at + 2]) << 8 | data[at + 3];
-    if (length == 0 && std::memcmp(data + at + 4, "IDAT", 4) == 0) empty_idat = true;
-    if (length > size - at - 12) break;
-    at += 12 + length;
-  }
-  if (!empty_idat) return out;
+  // Chunks: length (4, big-endian), type (4), data, CRC (4); the last one may be cut short.
+  const auto length_at = [&](std::size_t at) {
+    return std::size_t(data[at]) << 24 | std::size_t(data[at + 1]) << 16 | std::size_t(data[at + 2]) << 8 | data[at + 3];
+  };
+  const auto empty_idat_at = [&](std::size_t at) { return length_at(at) == 0 && std::memcmp(data + at + 4, "IDAT", 4) == 0; };
+  const auto chunk_bytes = [&](std::size_t at) { return std::min(size - at, 12 + length_at(at)); };
+  bool any = false;
+  for (std::size_t at = 8; at + 8 <= size; at += chunk_bytes(at)) any = any || empty_idat_at(at);
+  if (!any) return out;
   out.assign(data, data + 8);
   std::size_t at = 8;
-  while (at + 12 <= size) {
-    const std::size_t length = std::size_t(data[at]) << 24 | std::size_t(data[at + 1]) << 16 |
-                               std::size_t(data[at + 2]) << 8 | data[at + 3];
-    const std::size_t chunk = length > size - at - 12 ? size - at : 12 + length;
-    if (!(length == 0 && std::memcmp(data + at + 4, "IDAT", 4) == 0)) out.insert(out.end(), data + at, data + at + chunk);
-    at += chunk;
-  }
+  for (; at + 8 <= size; at += chunk_bytes(at))
+    if (!empty_idat_at(at)) out.insert(out.end(), data + at, data + at + chunk_bytes(at));
   out.insert(out.end(), data + at, data + size);
   return out;
-}
-
-// tinyexr trusts an attribute's stated size for the fixed-size types (it reads a "tiles"
-// tiledesc as 9 bytes whatever its size says: a heap over-read found by fuzz_skin_lut_cache).
-// This walks a single-part header's attributes (name, type, size, value; an empty name ends
-// it) and refuses one that runs past the file or whose size does not match its type.
-std::string exr_header_error(const std::uint8_t* data, std::size_t size) {
-  static constexpr std::pair<std::string_view, std::size_t> fixed_sizes[] = {
-      {"box2i", 16}, {"box2f", 16}, {"v2i", 8},   {"v2f", 8},         {"v3i", 12},      {"v3f", 12},
-      {"int", 4},    {"float", 4},  {"double", 8}, {"compression", 1}, {"lineOrder", 1}, {"tiledesc", 9},
-      {"m33f", 36},  {"m44f", 64},  {"rational", 8}, {"timecode", 8}, {"keycode", 28},  {"envmap", 1},
-      {"chromaticities", 32}};
-  std::size_t at = 8;  // magic and version
-  const auto cstring = [&](std::string_view what, std::string& out) -> std::string {
-    const std::size_t limit = std::min(size, at + 256);
-    std::size_t end = at;
-    while (end < limit && data[end] != 0) ++end;
-    if (end >= limit) return "the header's attribute " + std::string(what) + " at byte " + std::to_string(at) +
-                             " is not a string of at most 255 bytes";
-    out.assign(reinterpret_cast<const char*>(data) + at, end - at);
-    at = end + 1;
-    return {};
-  };
-  while (at < size) {
-    std::string name, type;
-    if (std::string why = cstring("name", name); !why.empty()) return why;
-    if (name.empty()) return {};  // end of the header
-    if (std::string why = cstring("type", type); !why.empty()) return why;
-    if (size - at < 4) return "attribute '" + name + "' is cut off before its size";
-    std::int32_t length = 0;
-    std::memcpy(&length, data + at, 4);
-    at += 4;
-    if (length < 0 || std::size_t(length) > size - at)
-      return "attribute '" + name + "' says it has " + std::to_string(length) + " bytes, the file has " +
-             std::to_string(size - at) + " left";
-    for (const auto& [fixed_type, bytes] : fixed_sizes)
-      if (type == fixed_type && std::size_t(length) != bytes)
-        return "attribute '" + name + "' of type " + type + " has " + std::to_string(length) + " bytes (a " + type +
-               " has " + std::to_string(bytes) + ")";
-    at += std::size_t(length);
-  }
-  return "the header has no end (no empty attribute name)";
 }
 
 Decoded<std::uint8_t> decode_ldr(const std::uint8_t* data, std::size_t size) {
