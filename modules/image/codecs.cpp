@@ -255,6 +255,48 @@ std::vector<std::uint8_t> png_without_empty_idat(const std::uint8_t* data, std::
   return out;
 }
 
+// tinyexr trusts an attribute's stated size for the fixed-size types (it reads a "tiles"
+// tiledesc as 9 bytes whatever its size says: a heap over-read found by fuzz_skin_lut_cache).
+// This walks a single-part header's attributes (name, type, size, value; an empty name ends
+// it) and refuses one that runs past the file or whose size does not match its type.
+std::string exr_header_error(const std::uint8_t* data, std::size_t size) {
+  static constexpr std::pair<std::string_view, std::size_t> fixed_sizes[] = {
+      {"box2i", 16}, {"box2f", 16}, {"v2i", 8},   {"v2f", 8},         {"v3i", 12},      {"v3f", 12},
+      {"int", 4},    {"float", 4},  {"double", 8}, {"compression", 1}, {"lineOrder", 1}, {"tiledesc", 9},
+      {"m33f", 36},  {"m44f", 64},  {"rational", 8}, {"timecode", 8}, {"keycode", 28},  {"envmap", 1},
+      {"chromaticities", 32}};
+  std::size_t at = 8;  // magic and version
+  const auto cstring = [&](std::string_view what, std::string& out) -> std::string {
+    const std::size_t limit = std::min(size, at + 256);
+    std::size_t end = at;
+    while (end < limit && data[end] != 0) ++end;
+    if (end >= limit) return "the header's attribute " + std::string(what) + " at byte " + std::to_string(at) +
+                             " is not a string of at most 255 bytes";
+    out.assign(reinterpret_cast<const char*>(data) + at, end - at);
+    at = end + 1;
+    return {};
+  };
+  while (at < size) {
+    std::string name, type;
+    if (std::string why = cstring("name", name); !why.empty()) return why;
+    if (name.empty()) return {};  // end of the header
+    if (std::string why = cstring("type", type); !why.empty()) return why;
+    if (size - at < 4) return "attribute '" + name + "' is cut off before its size";
+    std::int32_t length = 0;
+    std::memcpy(&length, data + at, 4);
+    at += 4;
+    if (length < 0 || std::size_t(length) > size - at)
+      return "attribute '" + name + "' says it has " + std::to_string(length) + " bytes, the file has " +
+             std::to_string(size - at) + " left";
+    for (const auto& [fixed_type, bytes] : fixed_sizes)
+      if (type == fixed_type && std::size_t(length) != bytes)
+        return "attribute '" + name + "' of type " + type + " has " + std::to_string(length) + " bytes (a " + type +
+               " has " + std::to_string(bytes) + ")";
+    at += std::size_t(length);
+  }
+  return "the header has no end (no empty attribute name)";
+}
+
 Decoded<std::uint8_t> decode_ldr(const std::uint8_t* data, std::size_t size) {
   Decoded<std::uint8_t> out;
   if (size > static_cast<std::size_t>(INT32_MAX)) {
