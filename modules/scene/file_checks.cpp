@@ -311,6 +311,15 @@ Result<void> check_off(const std::filesystem::path& path) {
                       std::string_view::npos;
   if (binary) return bad("binary OFF is not read by weft");
   if (keyword.find('n') != std::string_view::npos) (void)next_word();  // the dimension of nOFF
+  // What a vertex line holds, as OpenMesh reads it token by token (a short line makes it read
+  // the next line's numbers and lose its place: a hang found by fuzz_off): the position, a
+  // normal for N, a colour of 3 or 4 components for C, a texture coordinate for ST.
+  const std::string_view flags = keyword.substr(0, keyword.size() - 3);
+  const bool free_dimension = flags.find('n') != std::string_view::npos;
+  const std::size_t vertex_numbers = (flags.find('4') != std::string_view::npos ? 4 : 3) +
+                                     (flags.find('N') != std::string_view::npos ? 3 : 0) +
+                                     (flags.find('C') != std::string_view::npos ? 3 : 0) + (flags.starts_with("ST") ? 2 : 0);
+  const bool colour = flags.find('C') != std::string_view::npos;
   std::size_t counts[3] = {0, 0, 0};
   int c = 0;
   std::size_t counts_start = 0;
@@ -362,9 +371,16 @@ Result<void> check_off(const std::filesystem::path& path) {
       i = j;
     }
     if (tokens.empty() || tokens[0].front() == '#') continue;
+    for (std::size_t k = 0; k < tokens.size(); ++k)
+      if (tokens[k].front() == '#') tokens.resize(k);  // a comment at the end of the line
     if (vertices_seen < counts[0]) {
       if (tokens.size() < 3) return fail_at(line_number, "a vertex needs 3 coordinates");
-      for (std::size_t k = 0; k < 3; ++k) {
+      const bool numbers_fit = tokens.size() == vertex_numbers || (colour && tokens.size() == vertex_numbers + 1);
+      if (!free_dimension && !numbers_fit)
+        return fail_at(line_number, fmt::format("a {} vertex is {} numbers{}, this line has {}", keyword, vertex_numbers,
+                                                colour ? " (or one more: the colour's alpha)" : "", tokens.size()));
+      const std::size_t check = free_dimension ? 3 : tokens.size();
+      for (std::size_t k = 0; k < check; ++k) {
         float value = 0.0f;
         const auto [ptr, ec] = std::from_chars(tokens[k].data(), tokens[k].data() + tokens[k].size(), value);
         if (ec != std::errc() || ptr != tokens[k].data() + tokens[k].size()) {

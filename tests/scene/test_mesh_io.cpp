@@ -233,6 +233,18 @@ TEST_CASE("PLY (ASCII and binary) and OFF and STL load with their counts and pos
     CHECK(mesh->bounds.max == vec3(1, 1, 1));
     check_prepared(*mesh);
   }
+  SUBCASE("NOFF, COFF with alpha and CNOFF: every vertex number on its line, comments after them") {
+    for (const auto& [name, text] : std::vector<std::pair<std::string, std::string>>{
+             {"n.off", "NOFF\n3 1 0\n0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1 # a normal\n3 0 1 2\n"},
+             {"c.off", "COFF\n3 1 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0\n0 1 0 0 0 255 255\n3 0 1 2\n"},
+             {"cn.off", "CNOFF\n3 1 0\n0 0 0 0 0 1 1 0 0\n1 0 0 0 0 1 0 1 0 1\n0 1 0 0 0 1 0 0 1\n3 0 1 2\n"}}) {
+      write_file(dir / name, text);
+      auto mesh = sc::load_mesh(dir / name);
+      REQUIRE_MESSAGE(mesh.has_value(), name, ": ", mesh.error().what());
+      CHECK(mesh->vertex_count() == 3);
+      CHECK(mesh->triangle_count() == 1);
+    }
+  }
   SUBCASE("ASCII STL: a triangle soup welded into shared vertices") {
     std::string stl = "solid t\n";
     const int faces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
@@ -580,6 +592,11 @@ TEST_CASE("mesh files: inputs that hang, exhaust or abort OpenMesh's readers are
     refused("empty_same_line.off", "OFF 0 0 0\n", "the mesh is empty: 0 vertices, 0 faces");
     refused("empty_fuzzed.off", "OFF 0 0  1 2 (2\n", "the mesh is empty");
     refused("no_faces.off", "OFF\n1 0 0\n0 0 0\n", "the mesh is empty: 1 vertices, 0 faces");
+  }
+  SUBCASE("an OFF vertex line shorter than its keyword says (OpenMesh reads on into the next line)") {
+    refused("short_cnoff.off", "CNOFF\n3 1 0\n0 0 0\n1 0 0 0 0 1 1 1 1\n0 1 0 0 0 1 1 1 1\n3 0 1 2\n",
+            "a CNOFF vertex is 9 numbers (or one more: the colour's alpha), this line has 3");
+    refused("long_off.off", "OFF\n3 1 0\n0 0 0 7\n1 0 0\n0 1 0\n3 0 1 2\n", "a OFF vertex is 3 numbers, this line has 4");
   }
   SUBCASE("OFF counts spread over two lines (OpenMesh reads other numbers as counts and never returns)") {
     refused("split_counts.off", "OFF 3\n1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", "must stand on one line");
