@@ -292,6 +292,11 @@ std::string exr_header_error(const std::uint8_t* data, std::size_t size) {
       if (type == fixed_type && std::size_t(length) != bytes)
         return "attribute '" + name + "' of type " + type + " has " + std::to_string(length) + " bytes (a " + type +
                " has " + std::to_string(bytes) + ")";
+    // tinyexr reads these two by name, whatever their type says (found by fuzz_exr).
+    for (const auto& [by_name, bytes] : {std::pair<std::string_view, std::size_t>{"tiles", 9}, {"compression", 1}})
+      if (name == by_name && std::size_t(length) != bytes)
+        return "attribute '" + name + "' has " + std::to_string(length) + " bytes (it is " + std::to_string(bytes) +
+               ")";
     at += std::size_t(length);
   }
   return "the header has no end (no empty attribute name)";
