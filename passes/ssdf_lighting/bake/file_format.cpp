@@ -60,7 +60,7 @@ std::string tag_name(std::uint32_t tag) {
 // Floats read out of a payload (memcpy: the payload need not be aligned).
 std::vector<float> floats_of(std::span<const std::byte> bytes) {
   std::vector<float> values(bytes.size() / sizeof(float));
-  std::memcpy(values.data(), bytes.data(), values.size() * sizeof(float));
+  if (!values.empty()) std::memcpy(values.data(), bytes.data(), values.size() * sizeof(float));  // not from null
   return values;
 }
 std::vector<float> halves_of(std::span<const std::byte> bytes) {

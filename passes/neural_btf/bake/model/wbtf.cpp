@@ -65,7 +65,7 @@ class Writer : public BinaryWriter {
 std::vector<float> floats_of(std::span<const std::byte> bytes, FloatStorage storage) {
   std::vector<float> values(bytes.size() / float_bytes(storage));
   if (storage == FloatStorage::Fp32) {
-    std::memcpy(values.data(), bytes.data(), values.size() * sizeof(float));
+    if (!values.empty()) std::memcpy(values.data(), bytes.data(), values.size() * sizeof(float));
   } else {
     for (std::size_t i = 0; i < values.size(); ++i) {
       std::uint16_t h;

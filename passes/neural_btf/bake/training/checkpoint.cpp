@@ -42,7 +42,7 @@ struct Reader {
   std::size_t at = 0;
   bool raw(void* p, std::size_t n) {
     if (n > bytes.size() - at) return false;
-    std::memcpy(p, bytes.data() + at, n);
+    if (n > 0) std::memcpy(p, bytes.data() + at, n);  // an empty array's data() may be null
     at += n;
     return true;
   }
