@@ -222,6 +222,44 @@ struct CornerKeyHash {
 };
 
 // `contents`: the file as OpenMesh should read it, when weft rewrote it (PLY tristrips).
+// An OFF file that check_off accepted, written out again the one way OpenMesh's reader is sure
+// to parse: the keyword alone on the first line, the counts on the next, then each record on a
+// line of single-spaced tokens, comments and blank lines dropped. OpenMesh's own header parse
+// loses its place on layouts the format allows ("OFF  4 1 0", two spaces: an endless loop found
+// by fuzz_off), so it never sees the original text.
+Result<std::string> canonical_off(const std::filesystem::path& path) {
+  auto bytes = detail::read_file(path, "mesh file");
+  if (!bytes) return std::unexpected(bytes.error());
+  const std::string_view text(reinterpret_cast<const char*>(bytes->data()), bytes->size());
+  std::string out;
+  bool keyword_done = false;
+  for (std::size_t pos = 0; pos < text.size();) {
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view line = text.substr(pos, end - pos);
+    pos = end + 1;
+    if (const std::size_t hash = line.find('#'); hash != std::string_view::npos) line = line.substr(0, hash);
+    std::string record;
+    for (std::size_t i = 0; i < line.size();) {
+      while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
+      std::size_t j = i;
+      while (j < line.size() && line[j] != ' ' && line[j] != '\t' && line[j] != '\r') ++j;
+      if (j > i) {
+        if (!keyword_done) {  // the keyword ends its own line; what follows it starts the next
+          out.append(line.substr(i, j - i)).push_back('\n');
+          keyword_done = true;
+        } else {
+          if (!record.empty()) record.push_back(' ');
+          record.append(line.substr(i, j - i));
+        }
+      }
+      i = j;
+    }
+    if (!record.empty()) out.append(record).push_back('\n');
+  }
+  return out;
+}
+
 Result<Mesh> read_with_openmesh(const std::filesystem::path& path, const std::optional<std::string>& contents = std::nullopt) {
   std::error_code ec;
   const auto size = std::filesystem::file_size(path, ec);
@@ -389,6 +427,9 @@ Result<Mesh> load_mesh(const std::filesystem::path& path, const LoadOptions& opt
         rewritten = std::move(*faces);
       } else if (ext == ".off") {
         if (auto ok = detail::check_off(path); !ok) return std::unexpected(ok.error());
+        auto canonical = canonical_off(path);
+        if (!canonical) return std::unexpected(canonical.error());
+        rewritten = std::move(*canonical);
       }
       mesh = read_with_openmesh(path, rewritten);
     } else if (ext == ".gltf" || ext == ".glb") {
