@@ -194,8 +194,12 @@ Decoded<T> take_stb_pixels(T* pixels, int w, int h, int c) {
 // fuzz_jpg under UBSan; upstream fixed it in 2023). This walks the JPEG's marker segments,
 // entropy-coded data included, and refuses such a table before stb sees it.
 std::string jpeg_stream_error(const std::uint8_t* data, std::size_t size) {
-  if (size < 2 || data[0] != 0xFF || data[1] != 0xD8) return {};  // not a JPEG: stb decides
-  std::size_t at = 2;
+  // stb finds SOI as it finds every marker: 0xFF, any number of 0xFF fill bytes, then the code.
+  if (size < 2 || data[0] != 0xFF) return {};
+  std::size_t at = 0;
+  while (at < size && data[at] == 0xFF) ++at;
+  if (at >= size || data[at] != 0xD8) return {};  // not a JPEG: stb decides
+  ++at;
   while (at + 4 <= size) {
     if (data[at] != 0xFF) {  // entropy-coded data: skip to the next marker (0xFF, then not 00 / RSTn / FF)
       ++at;

@@ -863,6 +863,11 @@ TEST_CASE("a JPEG Huffman table with more than 256 codes is refused before stb_i
   REQUIRE_FALSE(refused);
   CHECK_MESSAGE(refused.error().message.find("Huffman table") != std::string::npos, refused.error().message);
   CHECK_MESSAGE(refused.error().message.find("at most 256") != std::string::npos, refused.error().message);
+  // stb skips 0xFF fill bytes before SOI as before any marker; so must the check.
+  bytes.insert(bytes.begin(), {0xFF, 0xFF});
+  const auto filled = weft::image::decode_ldr(bytes, "filled.jpg");
+  REQUIRE_FALSE(filled);
+  CHECK_MESSAGE(filled.error().message.find("Huffman table") != std::string::npos, filled.error().message);
 }
 
 TEST_CASE("a PNG with a zero-length IDAT chunk decodes to the same pixels as without it") {
