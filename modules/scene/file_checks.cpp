@@ -398,6 +398,7 @@ Result<void> check_off(const std::filesystem::path& path) {
     if (!integer(tokens[0], corners) || corners < 1 || corners > 4096) {
       return fail_at(line_number, fmt::format("'{}' is not a face's corner count", tokens[0].substr(0, 20)));
     }
+    if (corners < 3) return fail_at(line_number, fmt::format("a face of {} corners (a face needs 3 or more)", corners));
     if (tokens.size() < std::size_t(corners) + 1) return fail_at(line_number, "the face has fewer indices than its count");
     for (long long k = 1; k <= corners; ++k) {
       long long index = 0;

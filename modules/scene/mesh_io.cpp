@@ -10,6 +10,7 @@ module;
 #include <array>
 #include <bit>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <expected>
@@ -233,6 +234,10 @@ Result<std::string> canonical_off(const std::filesystem::path& path) {
   const std::string_view text(reinterpret_cast<const char*>(bytes->data()), bytes->size());
   std::string out;
   bool keyword_done = false;
+  bool free_dimension = false;      // nOFF: a dimension record comes before the counts
+  std::size_t records = 0, vertices = 0;
+  // Face records keep their corner count and indices only: OpenMesh reads what follows as a
+  // colour and loops on junk there (fuzz_off); weft has no use for face colours.
   for (std::size_t pos = 0; pos < text.size();) {
     std::size_t end = text.find('\n', pos);
     if (end == std::string_view::npos) end = text.size();
@@ -247,6 +252,7 @@ Result<std::string> canonical_off(const std::filesystem::path& path) {
       if (j > i) {
         if (!keyword_done) {  // the keyword ends its own line; what follows it starts the next
           out.append(line.substr(i, j - i)).push_back('\n');
+          free_dimension = line.substr(i, j - i).find('n') != std::string_view::npos;
           keyword_done = true;
         } else {
           if (!record.empty()) record.push_back(' ');
@@ -255,7 +261,17 @@ Result<std::string> canonical_off(const std::filesystem::path& path) {
       }
       i = j;
     }
-    if (!record.empty()) out.append(record).push_back('\n');
+    if (record.empty()) continue;
+    const std::size_t counts_record = free_dimension ? 1 : 0;
+    if (records == counts_record) vertices = std::strtoull(record.c_str(), nullptr, 10);
+    if (records > counts_record + vertices) {  // a face: its count, then that many indices
+      const std::size_t corners = std::strtoull(record.c_str(), nullptr, 10);
+      std::size_t at = 0;
+      for (std::size_t k = 0; k <= corners && at != std::string::npos; ++k) at = record.find(' ', at + (k ? 1 : 0));
+      if (at != std::string::npos) record.resize(at);
+    }
+    ++records;
+    out.append(record).push_back('\n');
   }
   return out;
 }

@@ -239,7 +239,9 @@ TEST_CASE("PLY (ASCII and binary) and OFF and STL load with their counts and pos
              {"c.off", "COFF\n3 1 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0\n0 1 0 0 0 255 255\n3 0 1 2\n"},
              {"cn.off", "CNOFF\n3 1 0\n0 0 0 0 0 1 1 0 0\n1 0 0 0 0 1 0 1 0 1\n0 1 0 0 0 1 0 0 1\n3 0 1 2\n"},
              // two spaces after the keyword: OpenMesh alone never returned (fuzz_off)
-             {"spaced.off", "OFF  3 1 0\n0  0 0\n1 0 0\t\n0 1 0\n\n3 0  1 2\n"}}) {
+             {"spaced.off", "OFF  3 1 0\n0  0 0\n1 0 0\t\n0 1 0\n\n3 0  1 2\n"},
+             // a face colour after the indices (OpenMesh is given the indices only)
+             {"face_colour.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 255 0 0\n"}}) {
       write_file(dir / name, text);
       auto mesh = sc::load_mesh(dir / name);
       REQUIRE_MESSAGE(mesh.has_value(), name, ": ", mesh.error().what());
@@ -599,6 +601,9 @@ TEST_CASE("mesh files: inputs that hang, exhaust or abort OpenMesh's readers are
     refused("short_cnoff.off", "CNOFF\n3 1 0\n0 0 0\n1 0 0 0 0 1 1 1 1\n0 1 0 0 0 1 1 1 1\n3 0 1 2\n",
             "a CNOFF vertex is 9 numbers (or one more: the colour's alpha), this line has 3");
     refused("long_off.off", "OFF\n3 1 0\n0 0 0 7\n1 0 0\n0 1 0\n3 0 1 2\n", "a OFF vertex is 3 numbers, this line has 4");
+  }
+  SUBCASE("an OFF face of fewer than 3 corners (OpenMesh looped on one with junk after it; fuzz_off)") {
+    refused("one_corner.off", "OFF\n1 1 0\n0 0 0\n1 0 4888888\n", "a face of 1 corners (a face needs 3 or more)");
   }
   SUBCASE("OFF counts spread over two lines (OpenMesh reads other numbers as counts and never returns)") {
     refused("split_counts.off", "OFF 3\n1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", "must stand on one line");
