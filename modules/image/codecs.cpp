@@ -313,6 +313,14 @@ Decoded<std::uint8_t> decode_ldr(const std::uint8_t* data, std::size_t size) {
     out.unsupported = true;
     return out;
   }
+  // Only formats with a signature: stb_image also tries TGA, which has none, so any bytes can
+  // pass for one (a fuzzed ".png" decoded as a TGA of huge size copied for minutes: fuzz_btf_folder).
+  const bool jpeg = size >= 2 && data[0] == 0xFF && (data[1] == 0xD8 || data[1] == 0xFF);
+  const bool bmp = size >= 2 && data[0] == 'B' && data[1] == 'M';
+  if (!is_png(data, size) && !jpeg && !bmp) {
+    out.error = "not a PNG, JPEG or BMP file (no signature; weft reads only those 8-bit formats)";
+    return out;
+  }
   if (std::string why = jpeg_stream_error(data, size); !why.empty()) {
     out.error = std::move(why);
     return out;

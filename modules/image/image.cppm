@@ -79,7 +79,8 @@ struct Image8 {
 // Io (cannot read or write, e.g. the folder does not exist), InvalidArgument (bad image),
 // Unsupported (a file kind or layout this module does not read). Each names the path.
 
-// Any 8-bit format stb_image reads (PNG, JPEG, BMP, TGA, ...), keeping the file's channels.
+// PNG, JPEG or BMP (stb_image; formats without a signature, such as TGA, are refused: any
+// bytes can pass for one), keeping the file's channels.
 // 16-bit PNGs are reduced to 8 bits.
 [[nodiscard]] Result<Image8> load_ldr(const std::filesystem::path& path);
 // Like load_ldr, from encoded bytes in memory (a glTF data URI or GLB buffer view); `label`

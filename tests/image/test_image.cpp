@@ -939,3 +939,12 @@ TEST_CASE("an EXR attribute whose size does not match its type is refused before
   CHECK_MESSAGE(r.error().message.find("attribute 'compression' of type compression has 2 bytes") != std::string::npos,
                 r.error().message);
 }
+
+TEST_CASE("bytes without a PNG, JPEG or BMP signature are not handed to stb_image's header-less TGA reader") {
+  // A TGA header (no signature): type 2, 16 x 16, 24 bits, then no pixels. stb would take it.
+  std::vector<std::uint8_t> tga = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 16, 0, 16, 0, 24, 0};
+  const auto r = weft::image::decode_ldr(tga, "fake.png");
+  REQUIRE_FALSE(r);
+  CHECK(r.error().kind == ErrorKind::Parse);
+  CHECK_MESSAGE(r.error().message.find("not a PNG, JPEG or BMP file") != std::string::npos, r.error().message);
+}
