@@ -398,6 +398,24 @@ Decoded<float> decode_exr(const std::uint8_t* data, std::size_t size) {
       return out;
     }
   }
+  // A window the file's bytes cannot fill, even at the best ratio OpenEXR's compressions reach
+  // (zlib's 1032:1; PIZ's run codes and B44 less), is a corrupt header: tinyexr would allocate
+  // and fill it all the same (fuzz_exr: 116 MB and minutes from a 404-byte file).
+  {
+    std::uint64_t bytes_per_pixel = 0;
+    for (int i = 0; i < exr.header.num_channels; ++i)
+      bytes_per_pixel += exr.header.pixel_types[i] == TINYEXR_PIXELTYPE_HALF ? 2 : 4;
+    const EXRBox2i& box = exr.header.data_window;
+    const std::uint64_t pixels = std::uint64_t(std::int64_t(box.max_x) - box.min_x + 1) *
+                                 std::uint64_t(std::int64_t(box.max_y) - box.min_y + 1);
+    constexpr std::uint64_t best_ratio = 2048, slack = 1 << 20;
+    if (pixels * bytes_per_pixel > best_ratio * size + slack) {
+      out.error = "data window of " + std::to_string(pixels) + " pixels (" + std::to_string(pixels * bytes_per_pixel) +
+                  " bytes decoded) is more than a " + std::to_string(size) +
+                  "-byte file can hold (OpenEXR compresses at most about 1000:1)";
+      return out;
+    }
+  }
   // tinyexr frees a half-decoded image with FreeEXRImage, which walks image.num_channels,
   // but sets that only on success: set it first so a corrupt file's planes are not leaked.
   exr.image.num_channels = exr.header.num_channels;

@@ -948,3 +948,34 @@ TEST_CASE("bytes without a PNG, JPEG or BMP signature are not handed to stb_imag
   CHECK(r.error().kind == ErrorKind::Parse);
   CHECK_MESSAGE(r.error().message.find("not a PNG, JPEG or BMP file") != std::string::npos, r.error().message);
 }
+
+TEST_CASE("an EXR data window far larger than its file can hold is refused; a constant image zlib packs 1000:1 loads") {
+  TempDir dir;
+  SUBCASE("a 404-byte file claiming 2,424,840 x 6 pixels (fuzz_exr: minutes of decoding)") {
+    const fs::path p = dir / "ok.exr";
+    REQUIRE(weft::image::save_exr(p, pattern(8, 6, 4)));
+    auto bytes = read_all(p);
+    const std::size_t at = find_bytes(bytes, std::string_view("dataWindow\0box2i\0", 17));
+    REQUIRE(at != std::string::npos);
+    const std::int32_t max_x = 2424839;
+    std::memcpy(bytes.data() + at + 17 + 4 + 8, &max_x, 4);
+    write_all(dir / "bad.exr", bytes);
+    const auto r = weft::image::load_exr(dir / "bad.exr");
+    REQUIRE_FALSE(r);
+    CHECK_MESSAGE(r.error().message.find("data window of 14549040 pixels") != std::string::npos, r.error().message);
+    CHECK_MESSAGE(r.error().message.find("more than a " + std::to_string(bytes.size()) + "-byte file can hold") !=
+                      std::string::npos,
+                  r.error().message);
+  }
+  SUBCASE("the bound leaves room for the best real compression") {
+    // 1024 x 1024 RGB of one value: 12 MiB of floats that weft's ZIP writer packs near zlib's limit.
+    const fs::path p = dir / "flat.exr";
+    REQUIRE(weft::image::save_exr(p, weft::image::Image::filled(1024, 1024, 3, 0.25f)));
+    const auto size = fs::file_size(p);
+    CHECK(1024.0 * 1024 * 3 * 4 / double(size) > 200.0);  // it is a file the bound is for
+    const auto r = weft::image::load_exr(p);
+    REQUIRE_MESSAGE(r, r.error().message);
+    CHECK(r->width == 1024);
+    CHECK(r->pixels[12345] == 0.25f);
+  }
+}

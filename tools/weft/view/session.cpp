@@ -383,8 +383,9 @@ Result<void> Session::update_comparison() {
   view.target = posted->pose.target;
   scene_renderer->submit({.scene = with_values(scene, comparison->type, comparison->reference), .camera = view,
                           .width = refined_image->width, .height = refined_image->height, .quality = posted->quality,
-                          .reference = true, .id = posted_id});
+                          .reference = true, .id = ++reference_jobs});
   comparison->posted = true;
+  comparison->job = reference_jobs;
   comparison->against = posted_id;
   return {};
 }
@@ -411,7 +412,10 @@ Result<void> Session::accept(RenderResult result, int window_w, int window_h) {
     return {};
   }
   if (result.reference) {
-    if (!comparison || !comparison->posted || comparison->against != result.id || result.id != posted_id) return {};
+    // A reference of an earlier request (the view's automatic re-compare, then the script's or
+    // the user's own) is dropped: taking it would print and store one comparison twice.
+    if (!comparison || !comparison->posted || comparison->job != result.id || comparison->against != posted_id)
+      return {};
     if (!result.frame) {
       error = weft::format("reference frame failed: {}", result.error);
       comparison.reset();

@@ -136,6 +136,8 @@ struct Comparison {
   std::string type, why;
   nlohmann::json reference;
   bool posted = false;                   // the reference job is with the render thread
+  std::uint64_t job = 0;                 // that job's id: only its result is taken (an earlier
+                                         // request's may still arrive, with the same view)
   std::uint64_t against = 0;             // posted_id of the refined image it compares with
   std::optional<ComparisonMetrics> metrics;
   bool overlay = false;
@@ -262,6 +264,7 @@ struct Session {
   };
   std::optional<Wanted> posted;
   std::uint64_t posted_id = 0;
+  std::uint64_t reference_jobs = 0;  // ids of reference jobs: their own count, apart from posted_id
   bool refined = false;         // last_frame is the full-resolution image of what is wanted now
   bool waiting_refine = false;  // the script's `refine`: hold the script until refined
   bool waiting_compare = false;  // the script's `compare`: hold it until the metrics are in
