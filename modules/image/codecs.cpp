@@ -325,6 +325,20 @@ Decoded<std::uint8_t> decode_ldr(const std::uint8_t* data, std::size_t size) {
     out.error = std::move(why);
     return out;
   }
+  // A JPEG or BMP header declaring far more pixels than the file's bytes can code: stb_image
+  // allocates and decodes the whole image from nothing (fuzz_jpg: 2567 x 1029 pixels, 0.8 s,
+  // from 626 bytes). The densest real codings: a JPEG spends at least a bit per 8x8 block and
+  // component (512 pixels a byte); a BMP (stb reads no RLE) a bit per pixel.
+  if (int w = 0, h = 0, c = 0; (jpeg || bmp) && stbi_info_from_memory(data, static_cast<int>(size), &w, &h, &c)) {
+    const std::uint64_t pixels = std::uint64_t(w) * std::uint64_t(h);
+    const std::uint64_t per_byte = jpeg ? 1024 : 8, slack = jpeg ? 1 << 18 : 1 << 12;
+    if (pixels > per_byte * size + slack) {
+      out.error = std::string(jpeg ? "JPEG" : "BMP") + " header declares " + std::to_string(w) + " x " +
+                  std::to_string(h) + " pixels, more than its " + std::to_string(size) + " bytes can code (" +
+                  (jpeg ? "a JPEG codes at most 512 pixels a byte" : "a BMP at most 8 pixels a byte") + ")";
+      return out;
+    }
+  }
   const std::vector<std::uint8_t> cleaned = png_without_empty_idat(data, size);
   if (!cleaned.empty()) {
     data = cleaned.data();

@@ -979,3 +979,54 @@ TEST_CASE("an EXR data window far larger than its file can hold is refused; a co
     CHECK(r->pixels[12345] == 0.25f);
   }
 }
+
+TEST_CASE("a JPEG or BMP header declaring more pixels than its bytes can code is refused before stb_image decodes it") {
+  SUBCASE("JPEG: 16 x 16 made 2567 x 1029 in its frame header (fuzz_jpg: 0.8 s per 626-byte input)") {
+    TempDir dir;
+    const fs::path p = dir / "ok.jpg";
+    REQUIRE(weft::image::save_jpeg(p, pattern8(16, 16, 3)));
+    auto bytes = read_all(p);
+    const std::size_t sof = find_bytes(bytes, std::string_view("\xFF\xC0", 2));
+    REQUIRE(sof != std::string::npos);
+    // FFC0, length (2), precision (1), height (2), width (2): big-endian.
+    bytes[sof + 5] = 1029 >> 8, bytes[sof + 6] = 1029 & 255, bytes[sof + 7] = 2567 >> 8, bytes[sof + 8] = 2567 & 255;
+    const auto r = weft::image::decode_ldr(bytes, "big.jpg");
+    REQUIRE_FALSE(r);
+    CHECK_MESSAGE(r.error().message.find("JPEG header declares 2567 x 1029 pixels, more than its " +
+                                         std::to_string(bytes.size()) + " bytes can code") != std::string::npos,
+                  r.error().message);
+  }
+  SUBCASE("JPEG: a flat 1024 x 1024 image, the bound's real neighbour, still loads") {
+    TempDir dir;
+    const fs::path p = dir / "flat.jpg";
+    weft::image::Image8 flat = weft::image::Image8::filled(1024, 1024, 3, 77);
+    REQUIRE(weft::image::save_jpeg(p, flat));
+    const auto r = weft::image::load_ldr(p);
+    REQUIRE_MESSAGE(r, r.error().message);
+    CHECK(r->width == 1024);
+    CHECK(std::abs(int(r->pixels[5000]) - 77) <= 2);
+  }
+  SUBCASE("BMP: 2 x 2 at 24 bits decodes; the same header made 4096 x 4096 is refused") {
+    // BITMAPFILEHEADER (14 bytes) + BITMAPINFOHEADER (40), then 2 rows of 2 BGR pixels padded to 8 bytes.
+    auto le = [](std::vector<std::uint8_t>& v, std::uint32_t x, int n) {
+      for (int i = 0; i < n; ++i) v.push_back(std::uint8_t(x >> (8 * i)));
+    };
+    auto bmp = [&](std::uint32_t w, std::uint32_t h) {
+      std::vector<std::uint8_t> v = {'B', 'M'};
+      le(v, 54 + 16, 4), le(v, 0, 4), le(v, 54, 4);
+      le(v, 40, 4), le(v, w, 4), le(v, h, 4), le(v, 1, 2), le(v, 24, 2), le(v, 0, 4), le(v, 16, 4);
+      le(v, 2835, 4), le(v, 2835, 4), le(v, 0, 4), le(v, 0, 4);
+      for (int row = 0; row < 2; ++row) v.insert(v.end(), {10, 20, 30, 40, 50, 60, 0, 0});
+      return v;
+    };
+    const auto small = weft::image::decode_ldr(bmp(2, 2), "small.bmp");
+    REQUIRE_MESSAGE(small, small.error().message);
+    CHECK(small->width == 2);
+    CHECK(small->pixels[0] == 30);  // BGR stored, RGB decoded
+    const auto big = weft::image::decode_ldr(bmp(4096, 4096), "big.bmp");
+    REQUIRE_FALSE(big);
+    CHECK_MESSAGE(big.error().message.find("BMP header declares 4096 x 4096 pixels, more than its 70 bytes") !=
+                      std::string::npos,
+                  big.error().message);
+  }
+}
