@@ -8,7 +8,7 @@ packages=(
   libvulkan-dev vulkan-validationlayers mesa-vulkan-drivers
   glslang-dev glslang-tools spirv-tools
   libglm-dev libopenmesh-dev libtinygltf-dev libspdlog-dev libfmt-dev doctest-dev
-  libeigen3-dev libembree-dev libstb-dev nlohmann-json3-dev libcli11-dev libtinyexr-dev
+  libeigen3-dev libembree-dev libstb-dev nlohmann-json3-dev libcli11-dev libtinyexr-dev libjpeg62-turbo-dev
   libtbb-dev git
   # the viewer (window, UI, headless X for its tests) and the fuzzers
   libglfw3-dev libimgui-dev xvfb xauth libfuzzer-19-dev

@@ -24,6 +24,7 @@
 #define STB_IMAGE_STATIC
 #define STB_IMAGE_IMPLEMENTATION
 #define STBI_NO_STDIO
+#define STBI_NO_JPEG  // JPEG goes to libjpeg-turbo (jpeg.cpp)
 #include <stb_image.h>
 #define STB_IMAGE_WRITE_STATIC
 #define STB_IMAGE_WRITE_IMPLEMENTATION
@@ -189,10 +190,10 @@ Decoded<T> take_stb_pixels(T* pixels, int w, int h, int c) {
   return out;
 }
 
-// Debian 12's stb_image (git 2022-09-08) builds a JPEG Huffman table without checking that
-// its 16 code counts sum to at most 256, and then writes past the 257-entry tables (found by
-// fuzz_jpg under UBSan; upstream fixed it in 2023). This walks the JPEG's marker segments,
-// entropy-coded data included, and refuses such a table before stb sees it.
+// A JPEG Huffman table whose 16 code counts sum past 256 made Debian 12's stb_image write past
+// its tables (fuzz_jpg; JPEG now goes to libjpeg-turbo, which refuses such a table as
+// "bogus"). The check stays because it says where: it walks the marker segments, entropy-coded
+// data included, and names the table's byte.
 std::string jpeg_stream_error(const std::uint8_t* data, std::size_t size) {
   // stb finds SOI as it finds every marker: 0xFF, any number of 0xFF fill bytes, then the code.
   if (size < 2 || data[0] != 0xFF) return {};
@@ -325,17 +326,15 @@ Decoded<std::uint8_t> decode_ldr(const std::uint8_t* data, std::size_t size) {
     out.error = std::move(why);
     return out;
   }
-  // A JPEG or BMP header declaring far more pixels than the file's bytes can code: stb_image
-  // allocates and decodes the whole image from nothing (fuzz_jpg: 2567 x 1029 pixels, 0.8 s,
-  // from 626 bytes). The densest real codings: a JPEG spends at least a bit per 8x8 block and
-  // component (512 pixels a byte); a BMP (stb reads no RLE) a bit per pixel.
-  if (int w = 0, h = 0, c = 0; (jpeg || bmp) && stbi_info_from_memory(data, static_cast<int>(size), &w, &h, &c)) {
+  // The densest real JPEG coding spends a bit per 8x8 block and component: 512 pixels a byte.
+  if (jpeg) return decode_jpeg(data, size, 1024, 1 << 18);
+  // A BMP header declaring far more pixels than the file holds (stb reads no RLE, so at most
+  // 8 pixels a byte): stb_image would allocate the whole image and fill it from nothing.
+  if (int w = 0, h = 0, c = 0; bmp && stbi_info_from_memory(data, static_cast<int>(size), &w, &h, &c)) {
     const std::uint64_t pixels = std::uint64_t(w) * std::uint64_t(h);
-    const std::uint64_t per_byte = jpeg ? 1024 : 8, slack = jpeg ? 1 << 18 : 1 << 12;
-    if (pixels > per_byte * size + slack) {
-      out.error = std::string(jpeg ? "JPEG" : "BMP") + " header declares " + std::to_string(w) + " x " +
-                  std::to_string(h) + " pixels, more than its " + std::to_string(size) + " bytes can code (" +
-                  (jpeg ? "a JPEG codes at most 512 pixels a byte" : "a BMP at most 8 pixels a byte") + ")";
+    if (pixels > 8 * std::uint64_t(size) + 4096) {
+      out.error = "BMP header declares " + std::to_string(w) + " x " + std::to_string(h) + " pixels, more than its " +
+                  std::to_string(size) + " bytes can code (a BMP at most 8 pixels a byte)";
       return out;
     }
   }

@@ -1,6 +1,6 @@
-// Internal to weft.image: the third-party codecs (stb_image, stb_image_write, tinyexr)
-// behind a few plain functions on memory buffers, compiled once in codecs.cpp so that no
-// module unit includes their implementations. Files, paths and weft::Error live in io.cpp.
+// Internal to weft.image: the third-party codecs (stb_image, stb_image_write, tinyexr;
+// libjpeg-turbo in jpeg.cpp) behind a few plain functions on memory buffers, compiled once in
+// codecs.cpp so that no module unit includes their implementations. Files, paths and weft::Error live in io.cpp.
 #pragma once
 
 #include <cstddef>
@@ -28,8 +28,12 @@ struct Encoded {
 bool is_png(const std::uint8_t* data, std::size_t size);
 bool is_radiance(const std::uint8_t* data, std::size_t size);
 
-// Anything stb_image decodes to 8 bits, with the file's own channel count.
+// PNG, JPEG or BMP to 8 bits, with the file's own channel count (JPEG: grey 1, else RGB).
 Decoded<std::uint8_t> decode_ldr(const std::uint8_t* data, std::size_t size);
+// JPEG through libjpeg-turbo (jpeg.cpp); refuses a header of more than
+// most_pixels_per_byte * size + pixel_slack pixels before decoding.
+Decoded<std::uint8_t> decode_jpeg(const std::uint8_t* data, std::size_t size, std::uint64_t most_pixels_per_byte,
+                                  std::uint64_t pixel_slack);
 // Radiance RGBE; the caller checks is_radiance first.
 Decoded<float> decode_radiance(const std::uint8_t* data, std::size_t size);
 // OpenEXR: RGB(A), Y(A) or a single channel; scanline or tiled (first level).

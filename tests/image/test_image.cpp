@@ -21,6 +21,8 @@
 #include <vector>
 
 #include <tinyexr.h>  // declarations only: to write a tiled EXR, which weft.image never writes
+#include <cstdio>  // before jpeglib.h, which uses FILE
+#include <jpeglib.h>  // to write a CMYK JPEG, which weft.image never writes
 
 import weft.image;
 import weft.core;
@@ -1028,5 +1030,68 @@ TEST_CASE("a JPEG or BMP header declaring more pixels than its bytes can code is
     CHECK_MESSAGE(big.error().message.find("BMP header declares 4096 x 4096 pixels, more than its 70 bytes") !=
                       std::string::npos,
                   big.error().message);
+  }
+}
+
+namespace {
+// A w x h JPEG of one colour, written with libjpeg itself (weft.image writes only YCbCr).
+std::vector<std::uint8_t> libjpeg_flat(int w, int h, J_COLOR_SPACE space, std::vector<std::uint8_t> colour) {
+  const int n = int(colour.size());
+  std::vector<std::uint8_t> row(std::size_t(w * n));
+  for (int x = 0; x < w; ++x) std::copy(colour.begin(), colour.end(), row.begin() + x * n);
+  jpeg_compress_struct c{};
+  jpeg_error_mgr err{};
+  c.err = jpeg_std_error(&err);
+  jpeg_create_compress(&c);
+  unsigned char* out = nullptr;
+  unsigned long out_size = 0;
+  jpeg_mem_dest(&c, &out, &out_size);
+  c.image_width = JDIMENSION(w);
+  c.image_height = JDIMENSION(h);
+  c.input_components = n;
+  c.in_color_space = space;
+  jpeg_set_defaults(&c);
+  jpeg_set_quality(&c, 100, TRUE);
+  jpeg_start_compress(&c, TRUE);
+  for (int y = 0; y < h; ++y) {
+    JSAMPROW r = row.data();
+    jpeg_write_scanlines(&c, &r, 1);
+  }
+  jpeg_finish_compress(&c);
+  std::vector<std::uint8_t> bytes(out, out + out_size);
+  jpeg_destroy_compress(&c);
+  std::free(out);
+  return bytes;
+}
+}  // namespace
+
+TEST_CASE("JPEG decoding (libjpeg-turbo): a truncated stream is an error, CMYK becomes RGB, grey stays one channel") {
+  TempDir dir;
+  SUBCASE("cut in the middle of its entropy-coded data") {
+    const fs::path p = dir / "ok.jpg";
+    REQUIRE(weft::image::save_jpeg(p, pattern8(64, 64, 3)));
+    auto bytes = read_all(p);
+    REQUIRE(weft::image::decode_ldr(bytes, "ok.jpg"));
+    const std::size_t sos = find_bytes(bytes, std::string_view("\xFF\xDA", 2));
+    REQUIRE(sos != std::string::npos);
+    bytes.resize(sos + (bytes.size() - sos) / 2);
+    const auto r = weft::image::decode_ldr(bytes, "cut.jpg");
+    REQUIRE_FALSE(r);  // stb_image filled the rest and succeeded
+    CHECK_MESSAGE(r.error().message.find("Premature end of JPEG file") != std::string::npos, r.error().message);
+    CHECK_MESSAGE(r.error().message.find("cut.jpg") != std::string::npos, r.error().message);
+  }
+  SUBCASE("an Adobe CMYK file (stored inverted): RGB = C * K / 255") {
+    const std::vector<std::uint8_t> cmyk = {200, 100, 50, 128};
+    const auto img = weft::image::decode_ldr(libjpeg_flat(16, 8, JCS_CMYK, cmyk), "cmyk.jpg");
+    REQUIRE_MESSAGE(img, img.error().message);
+    CHECK(img->channels == 3);
+    for (int ch = 0; ch < 3; ++ch)
+      CHECK_MESSAGE(std::abs(int(img->pixels[std::size_t(5 * 3 + ch)]) - cmyk[std::size_t(ch)] * cmyk[3] / 255) <= 2, ch);
+  }
+  SUBCASE("grey") {
+    const auto img = weft::image::decode_ldr(libjpeg_flat(8, 8, JCS_GRAYSCALE, {90}), "grey.jpg");
+    REQUIRE_MESSAGE(img, img.error().message);
+    CHECK(img->channels == 1);
+    CHECK(std::abs(int(img->pixels[10]) - 90) <= 1);
   }
 }
