@@ -909,17 +909,25 @@ TEST_CASE("a Radiance file whose header ends in a NUL line and whose RLE stops s
   }
 }
 
-TEST_CASE("an EXR data window near INT_MIN is refused before tinyexr overflows computing its width") {
-  TempDir dir;
+namespace {
+// A valid EXR of `image` whose data window has one field (0 min_x, 1 min_y, 2 max_x, 3 max_y)
+// set to `value`; returns its bytes.
+std::vector<std::uint8_t> exr_with_window_field(const TempDir& dir, const Image& image, int field, std::int32_t value) {
   const fs::path p = dir / "ok.exr";
-  REQUIRE(weft::image::save_exr(p, pattern(4, 3, 3)));
+  REQUIRE(weft::image::save_exr(p, image));
   auto bytes = read_all(p);
   // The attribute: "dataWindow\0box2i\0", its size (16), then min_x, min_y, max_x, max_y.
   const std::size_t at = find_bytes(bytes, std::string_view("dataWindow\0box2i\0", 17));
   REQUIRE(at != std::string::npos);
-  const std::int32_t min_x = std::numeric_limits<std::int32_t>::min();
-  std::memcpy(bytes.data() + at + 17 + 4, &min_x, 4);
+  std::memcpy(bytes.data() + at + 17 + 4 + 4 * field, &value, 4);
   write_all(dir / "bad.exr", bytes);
+  return bytes;
+}
+}  // namespace
+
+TEST_CASE("an EXR data window near INT_MIN is refused before tinyexr overflows computing its width") {
+  TempDir dir;
+  exr_with_window_field(dir, pattern(4, 3, 3), 0, std::numeric_limits<std::int32_t>::min());
   const auto r = weft::image::load_exr(dir / "bad.exr");
   REQUIRE_FALSE(r);
   CHECK_MESSAGE(r.error().message.find("data window") != std::string::npos, r.error().message);
@@ -954,14 +962,7 @@ TEST_CASE("bytes without a PNG, JPEG or BMP signature are not handed to stb_imag
 TEST_CASE("an EXR data window far larger than its file can hold is refused; a constant image zlib packs 1000:1 loads") {
   TempDir dir;
   SUBCASE("a 404-byte file claiming 2,424,840 x 6 pixels (fuzz_exr: minutes of decoding)") {
-    const fs::path p = dir / "ok.exr";
-    REQUIRE(weft::image::save_exr(p, pattern(8, 6, 4)));
-    auto bytes = read_all(p);
-    const std::size_t at = find_bytes(bytes, std::string_view("dataWindow\0box2i\0", 17));
-    REQUIRE(at != std::string::npos);
-    const std::int32_t max_x = 2424839;
-    std::memcpy(bytes.data() + at + 17 + 4 + 8, &max_x, 4);
-    write_all(dir / "bad.exr", bytes);
+    const auto bytes = exr_with_window_field(dir, pattern(8, 6, 4), 2, 2424839);
     const auto r = weft::image::load_exr(dir / "bad.exr");
     REQUIRE_FALSE(r);
     CHECK_MESSAGE(r.error().message.find("data window of 14549040 pixels") != std::string::npos, r.error().message);
@@ -982,7 +983,7 @@ TEST_CASE("an EXR data window far larger than its file can hold is refused; a co
   }
 }
 
-TEST_CASE("a JPEG or BMP header declaring more pixels than its bytes can code is refused before stb_image decodes it") {
+TEST_CASE("a JPEG or BMP header declaring more pixels than its bytes can code is refused before it is decoded") {
   SUBCASE("JPEG: 16 x 16 made 2567 x 1029 in its frame header (fuzz_jpg: 0.8 s per 626-byte input)") {
     TempDir dir;
     const fs::path p = dir / "ok.jpg";
