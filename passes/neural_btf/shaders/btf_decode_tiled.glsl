@@ -10,18 +10,22 @@
 //  - a layer is an outer-product loop: for each 4 inputs, a block of BTF_T_BLOCK outputs' 4
 //    weights is loaded once (at a workgroup-uniform address: on a GPU the scalar / constant
 //    path) and used for all BTF_T_ROWS rows of the invocation: BTF_T_ROWS x BTF_T_BLOCK x 4
-//    FMAs per weight vec4, into BTF_T_ROWS x BTF_T_BLOCK = 16 independent accumulators;
+//    FMAs per weight vec4, into BTF_T_ROWS x BTF_T_BLOCK = 32 independent accumulators (with
+//    AVX-512, as on this project's VMs, LLVM has 32 vector registers; on an AVX2-only CPU, 16,
+//    some of them spill: measure there before trusting the shape);
 //  - activations stay in the invocation's own arrays (ping-pong), indexed by the loop counters
 //    only, so the loops stay loops with short bodies that LLVM compiles in seconds.
-// Measured on lavapipe (2 cores, loaded): 8 rows x 2 outputs ~2.3 GFLOP/s, 4 x 4 ~2.0, 1 row x
-// 12 outputs 0.55, the per-query generic decoder 0.96, the FMA peak of the same device ~9.5.
+// Measured on lavapipe (2 cores, idle, medians of 3 alternated rounds; weft-bench-btf-decode
+// kernel): 8 rows x 4 outputs 26 GFLOP/s (29 % of the device's FMA peak, ~89), 8 x 3 and 8 x 6
+// 24, 8 x 2 20, 4 x 4 19; earlier, loaded: 1 row x 12 outputs 6 % of peak, the per-query
+// generic decoder 10 %.
 // The shape is the paper's (8-D latent, 12 -> 106 -> 106 -> 106 -> 3; widths padded to 108
 // with zero weights by pack_model); other shapes use btf_decode (btf_decode.glsl) per row.
 #ifndef WEFT_BTF_DECODE_TILED_GLSL
 #define WEFT_BTF_DECODE_TILED_GLSL
 
 #define BTF_T_ROWS 8u   // rows per invocation
-#define BTF_T_BLOCK 2u  // outputs per block
+#define BTF_T_BLOCK 4u  // outputs per block
 const uint BTF_T_WIDTH = 108u;  // the hidden width, padded
 
 // One hidden layer (ReLU): SRC[row][input] -> DST[row][output].
