@@ -530,15 +530,34 @@ void ComputePassEncoder::set_push_constants(std::span<const std::byte> data, std
   vkCmdPushConstants(encoder_->cmd_, pipeline_->layout_, VK_SHADER_STAGE_ALL, offset, std::uint32_t(data.size()), data.data());
 }
 
-void ComputePassEncoder::dispatch(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
-  if (ended_) return;
-  if (!pipeline_)
-    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': dispatch without a pipeline", label_)});
+bool ComputePassEncoder::ready_to_dispatch(std::string_view what) {
+  if (ended_) return false;
+  if (!pipeline_) {
+    encoder_->report_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': {} without a pipeline", label_, what)});
+    return false;
+  }
   for (std::uint32_t i = 0; i < groups_.size(); ++i)
     if (dirty_groups_ & (1u << i))
       vkCmdBindDescriptorSets(encoder_->cmd_, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_->layout_, i, 1, &groups_[i], 0, nullptr);
   dirty_groups_ = 0;
+  return true;
+}
+
+void ComputePassEncoder::dispatch(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+  if (!ready_to_dispatch("dispatch")) return;
   if (x && y && z) vkCmdDispatch(encoder_->cmd_, x, y, z);
+}
+
+void ComputePassEncoder::dispatch_indirect(const Buffer& args, std::uint64_t offset) {
+  if (ended_) return;
+  if (!has(args.usage(), BufferUsage::Indirect))
+    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': buffer '{}' used for dispatch_indirect lacks indirect usage (has {})",
+                                                                           label_, args.label(), to_string(args.usage()))});
+  if (offset % 4 || offset + 12 > args.size())
+    return encoder_->report_error({ErrorKind::InvalidArgument, weft::format("compute pass '{}': dispatch_indirect reads 12 bytes at offset {} of buffer '{}' ({} bytes; the offset must be a multiple of 4)",
+                                                                           label_, offset, args.label(), args.size())});
+  if (!ready_to_dispatch("dispatch_indirect")) return;
+  vkCmdDispatchIndirect(encoder_->cmd_, args.buffer_, offset);
 }
 
 void ComputePassEncoder::end() {

@@ -281,6 +281,7 @@ class Buffer {
   friend class Queue;
   friend class CommandEncoder;
   friend class RenderPassEncoder;
+  friend class ComputePassEncoder;
   friend struct detail::DeviceShared;
 };
 
@@ -734,10 +735,14 @@ class ComputePassEncoder {
   template <class T>
   void push(const T& value) { set_push_constants(std::as_bytes(std::span(&value, 1))); }
   void dispatch(std::uint32_t x, std::uint32_t y = 1, std::uint32_t z = 1);
+  // The group counts x, y, z (three uint32) at `offset` in `args`, written by earlier GPU work
+  // (a list whose length only the GPU knows); a graph pass declares `args` BufferUse::Indirect.
+  void dispatch_indirect(const Buffer& args, std::uint64_t offset = 0);
   void end();
 
  private:
   explicit ComputePassEncoder(CommandEncoder* encoder) : encoder_(encoder) {}
+  bool ready_to_dispatch(std::string_view what);
   CommandEncoder* encoder_ = nullptr;
   const ComputePipeline* pipeline_ = nullptr;
   std::array<VkDescriptorSet, 8> groups_{};

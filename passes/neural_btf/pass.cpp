@@ -237,6 +237,9 @@ struct NeuralBTFMaterial::State {
   // The batched path: geometry into the G-buffer (same layouts as the fragment path), the
   // tiled decode (paper shape; any other shape per row), the resolve into the scene colour.
   gpu::RenderPipeline gbuffer_pipeline;
+  gpu::BindGroupLayout list_layout;
+  gpu::PipelineLayout list_pipeline_layout;
+  gpu::ComputePipeline list_pipeline;
   gpu::BindGroupLayout decode_layout;
   gpu::PipelineLayout decode_pipeline_layout;
   gpu::ComputePipeline decode_tiled;
@@ -253,9 +256,10 @@ namespace {
 constexpr gpu::Format gbuffer_format = gpu::Format::RGBA32Float;
 constexpr const char* gbuffer_names[4] = {"neural_btf_coords", "neural_btf_light", "neural_btf_light_weight",
                                           "neural_btf_ambient_weight"};
-constexpr std::uint32_t decode_tile = 16;  // btf_decode_tiles.glsl's TILE
+constexpr std::uint32_t list_tile = 16;    // btf_list_taps.comp's TILE
+constexpr std::uint32_t tap_classes = 4;   // btf_pixel_taps.glsl's BTF_CLASSES: pixels of 1, 2, 4, 8 decodes
 struct DecodePush {
-  std::uint32_t width, height, model, pad;
+  std::uint32_t width, height, model, tap_class;
 };
 }  // namespace
 
@@ -271,11 +275,13 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
                                                      .spirv = shaders::neural_btf_reference_frag()}));
   WEFT_TRY(auto gbuffer_fs, device.create_shader_module(
         {.label = "neural_btf_gbuffer.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_gbuffer_frag()}));
+  WEFT_TRY(auto list_cs, device.create_shader_module(
+        {.label = "btf_list_taps.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_list_taps_comp()}));
   WEFT_TRY(auto tiled_cs, device.create_shader_module(
-        {.label = "btf_decode_tiles.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_tiles_comp()}));
-  WEFT_TRY(auto generic_cs, device.create_shader_module({.label = "btf_decode_tiles_generic.comp",
+        {.label = "btf_decode_taps.comp", .stage = ShaderStage::Compute, .spirv = shaders::btf_decode_taps_comp()}));
+  WEFT_TRY(auto generic_cs, device.create_shader_module({.label = "btf_decode_taps_generic.comp",
                                                    .stage = ShaderStage::Compute,
-                                                   .spirv = shaders::btf_decode_tiles_generic_comp()}));
+                                                   .spirv = shaders::btf_decode_taps_generic_comp()}));
   WEFT_TRY(auto fullscreen_vs, device.create_shader_module(
         {.label = "fullscreen.vert", .stage = ShaderStage::Vertex, .spirv = frame::fullscreen_vertex_spirv()}));
   WEFT_TRY(auto resolve_fs, device.create_shader_module(
@@ -304,13 +310,27 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
          .cull_mode = gpu::CullMode::None,
          .color_targets = {{gbuffer_format}, {gbuffer_format}, {gbuffer_format}, {gbuffer_format}},
          .depth_stencil = gpu::DepthStencilState{.format = frame::scene_depth_format}}));
+  WEFT_TRY(auto list_layout, device.create_bind_group_layout({.label = "neural-btf-list",
+                                                        .entries = {{0, BindingType::TextureSampler, ShaderStage::Compute},
+                                                                    {1, BindingType::TextureSampler, ShaderStage::Compute},
+                                                                    {2, BindingType::TextureSampler, ShaderStage::Compute},
+                                                                    {3, BindingType::StorageBuffer, ShaderStage::Compute},
+                                                                    {4, BindingType::StorageBuffer, ShaderStage::Compute},
+                                                                    {5, BindingType::StorageBuffer, ShaderStage::Compute},
+                                                                    {6, BindingType::StorageBuffer, ShaderStage::Compute}}}));
+  WEFT_TRY(auto list_pipeline_layout, device.create_pipeline_layout(
+        {.label = "neural-btf-list", .bind_group_layouts = {&list_layout}, .push_constant_size = sizeof(DecodePush)}));
+  WEFT_TRY(auto list_pipeline, device.create_compute_pipeline(
+        {.label = "neural-btf-list", .layout = &list_pipeline_layout, .module = &list_cs}));
   WEFT_TRY(auto decode_layout, device.create_bind_group_layout({.label = "neural-btf-decode",
                                                           .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
                                                                       {1, BindingType::TextureSampler, ShaderStage::Compute},
                                                                       {2, BindingType::TextureSampler, ShaderStage::Compute},
                                                                       {3, BindingType::TextureSampler, ShaderStage::Compute},
                                                                       {4, BindingType::TextureSampler, ShaderStage::Compute},
-                                                                      {5, BindingType::StorageBuffer, ShaderStage::Compute}}}));
+                                                                      {5, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
+                                                                      {6, BindingType::ReadOnlyStorageBuffer, ShaderStage::Compute},
+                                                                      {7, BindingType::StorageBuffer, ShaderStage::Compute}}}));
   WEFT_TRY(auto decode_pipeline_layout, device.create_pipeline_layout(
         {.label = "neural-btf-decode", .bind_group_layouts = {&decode_layout}, .push_constant_size = sizeof(DecodePush)}));
   WEFT_TRY(auto decode_tiled, device.create_compute_pipeline(
@@ -322,7 +342,7 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
          .entries = {{0, BindingType::TextureSampler, ShaderStage::Fragment},
                      {1, BindingType::ReadOnlyStorageBuffer, ShaderStage::Fragment}}}));
   WEFT_TRY(auto resolve_pipeline_layout, device.create_pipeline_layout(
-        {.label = "neural-btf-resolve", .bind_group_layouts = {&resolve_layout}, .push_constant_size = sizeof(DecodePush)}));
+        {.label = "neural-btf-resolve", .bind_group_layouts = {&resolve_layout}, .push_constant_size = 4}));
   WEFT_TRY(auto resolve_pipeline, device.create_render_pipeline({.label = "neural-btf-resolve",
                                                            .layout = &resolve_pipeline_layout,
                                                            .vertex = &fullscreen_vs,
@@ -334,7 +354,8 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
   NeuralBTFMaterial pass;
   pass.state_ = std::make_shared<State>(State{std::move(frame_layout), std::move(material_layout), std::move(layout),
                                               std::move(pipeline), std::move(reference_pipeline),
-                                              std::move(shadow_compare), std::move(gbuffer_pipeline), std::move(decode_layout),
+                                              std::move(shadow_compare), std::move(gbuffer_pipeline), std::move(list_layout),
+                                              std::move(list_pipeline_layout), std::move(list_pipeline), std::move(decode_layout),
                                               std::move(decode_pipeline_layout), std::move(decode_tiled),
                                               std::move(decode_generic), std::move(resolve_layout),
                                               std::move(resolve_pipeline_layout), std::move(resolve_pipeline),
@@ -434,9 +455,11 @@ Result<void> NeuralBTFMaterial::add(RenderGraph& graph, std::span<const NeuralBt
 }
 
 // The batched path (docs/neural-btf.md, "The batched decode"): neural_btf draws the objects
-// into a G-buffer of decode inputs and the scene depth; neural_btf_decode (one pass per model,
-// so the graph orders their writes of the radiance buffer) decodes each 16 x 16 tile's pixels
-// in batches; neural_btf_resolve writes the radiance of the marked pixels into the scene colour.
+// into a G-buffer of decode inputs and the scene depth; per model (so the graph orders their
+// writes), neural_btf_list collects the model's pixels from the whole screen into lists by how
+// many decodes each needs, and neural_btf_decode decodes the lists in full batches of 256 rows
+// (indirect dispatches); neural_btf_resolve writes the radiance of the marked pixels into the
+// scene colour.
 Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<NeuralBtfDraw> draws,
                                             std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials,
                                             std::uint32_t width, std::uint32_t height) const {
@@ -508,23 +531,84 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
       });
   const GeometryData g = geometry;
 
+  // The lists' lengths and the decodes' indirect group counts, zeroed each frame: per model and
+  // class (btf_pixel_taps.glsl), a count, and a VkDispatchIndirectCommand behind a pad word.
+  const std::uint64_t pixels = std::uint64_t(width) * height;
+  if (2 * pixels >= (std::uint64_t(1) << 32))
+    return fail(ErrorKind::InvalidArgument, "neural BTF pass: a {} x {} frame has more pixels than the decode list indexes (2^31)",
+                width, height);
+  const std::uint64_t counters = models.size() * tap_classes;
+  struct ClearData {
+    BufferHandle counts, groups;
+  };
+  auto& clear = graph.add_pass<ClearData>(
+      "neural_btf_list_clear",
+      [&](PassBuilder& b, ClearData& d) {
+        d.counts = b.write(b.create_buffer("neural_btf_list_counts", {.size = counters * 4}), BufferUse::CopyDst);
+        d.groups = b.write(b.create_buffer("neural_btf_decode_groups", {.size = counters * 16}), BufferUse::CopyDst);
+        b.kind(PassKind::Transfer);
+      },
+      [](const PassResources& res, const ClearData& d, PassContext& ctx) {
+        ctx.encoder().fill_buffer(res.buffer(d.counts), 0);
+        ctx.encoder().fill_buffer(res.buffer(d.groups), 0);
+      });
+  BufferHandle counts = clear.counts, groups = clear.groups, list, radiance;
+
+  struct ListData {
+    TextureHandle gbuffer[3];  // light, light weight, ambient weight
+    BufferHandle counts, groups, list, radiance;
+  };
   struct DecodeData {
     TextureHandle gbuffer[4];
-    BufferHandle model;
-    BufferHandle radiance;
+    BufferHandle model, counts, groups, list, radiance;
   };
-  BufferHandle radiance;
   for (std::size_t m = 0; m < models.size(); ++m) {
     const bool first = m == 0;
+    const std::string suffix = first ? std::string() : weft::format("_{}", m);
+    auto& listed = graph.add_pass<ListData>(
+        "neural_btf_list" + suffix,
+        [&](PassBuilder& b, ListData& d) {
+          for (int i = 0; i < 3; ++i) d.gbuffer[i] = b.read(g.gbuffer[i + 1], TextureUse::Sampled);
+          d.counts = b.write(counts, BufferUse::StorageWrite);
+          d.groups = b.write(groups, BufferUse::StorageWrite);
+          // Two halves of one entry per pixel (btf_pixel_taps.glsl's list_index); rgb fp32 per pixel.
+          d.list = b.write(first ? b.create_buffer("neural_btf_list", {.size = 2 * pixels * 4}) : list,
+                           BufferUse::StorageWrite);
+          d.radiance = b.write(first ? b.create_buffer("neural_btf_radiance", {.size = pixels * 12}) : radiance,
+                               BufferUse::StorageWrite);
+          b.kind(PassKind::Compute);
+        },
+        [state, width, height, index = std::uint32_t(m)](const PassResources& res, const ListData& d, PassContext& ctx) {
+          auto group = ctx.device().create_bind_group(
+              {.label = "neural-btf-list",
+               .layout = &state->list_layout,
+               .entries = {gpu::bind(0, res.view(d.gbuffer[0]), &state->nearest),
+                           gpu::bind(1, res.view(d.gbuffer[1]), &state->nearest),
+                           gpu::bind(2, res.view(d.gbuffer[2]), &state->nearest), gpu::bind(3, res.buffer(d.counts)),
+                           gpu::bind(4, res.buffer(d.groups)), gpu::bind(5, res.buffer(d.list)),
+                           gpu::bind(6, res.buffer(d.radiance))}});
+          if (!group) return ctx.encoder().report_error(group.error());
+          const auto& list_group = ctx.keep(std::move(*group));
+          auto pass = ctx.encoder().begin_compute_pass("neural_btf_list");
+          pass.set_pipeline(state->list_pipeline);
+          pass.set_bind_group(0, list_group);
+          pass.push(DecodePush{width, height, index, 0});
+          pass.dispatch((width + list_tile - 1) / list_tile, (height + list_tile - 1) / list_tile);
+          pass.end();
+        });
+    counts = listed.counts;
+    groups = listed.groups;
+    list = listed.list;
+    radiance = listed.radiance;
     auto& decode = graph.add_pass<DecodeData>(
-        m == 0 ? std::string("neural_btf_decode") : weft::format("neural_btf_decode_{}", m),
+        "neural_btf_decode" + suffix,
         [&](PassBuilder& b, DecodeData& d) {
           for (int i = 0; i < 4; ++i) d.gbuffer[i] = b.read(g.gbuffer[i], TextureUse::Sampled);
           d.model = b.read(models[m].handle, BufferUse::StorageRead);
-          const BufferHandle target =
-              first ? b.create_buffer("neural_btf_radiance", {.size = std::uint64_t(width) * height * sizeof(vec4)})
-                    : radiance;
-          d.radiance = b.write(target, BufferUse::StorageWrite);
+          d.counts = b.read(counts, BufferUse::StorageRead);
+          d.groups = b.read(groups, BufferUse::Indirect);
+          d.list = b.read(list, BufferUse::StorageRead);
+          d.radiance = b.write(radiance, BufferUse::StorageWrite);
           b.kind(PassKind::Compute);
         },
         [state, width, height, index = std::uint32_t(m), tiled = models[m].tiled](const PassResources& res,
@@ -535,14 +619,18 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
                .entries = {gpu::bind(0, res.buffer(d.model)), gpu::bind(1, res.view(d.gbuffer[0]), &state->nearest),
                            gpu::bind(2, res.view(d.gbuffer[1]), &state->nearest),
                            gpu::bind(3, res.view(d.gbuffer[2]), &state->nearest),
-                           gpu::bind(4, res.view(d.gbuffer[3]), &state->nearest), gpu::bind(5, res.buffer(d.radiance))}});
+                           gpu::bind(4, res.view(d.gbuffer[3]), &state->nearest), gpu::bind(5, res.buffer(d.counts)),
+                           gpu::bind(6, res.buffer(d.list)), gpu::bind(7, res.buffer(d.radiance))}});
           if (!group) return ctx.encoder().report_error(group.error());
           const auto& decode_group = ctx.keep(std::move(*group));
           auto pass = ctx.encoder().begin_compute_pass("neural_btf_decode");
           pass.set_pipeline(tiled ? state->decode_tiled : state->decode_generic);
           pass.set_bind_group(0, decode_group);
-          pass.push(DecodePush{width, height, index, 0});
-          pass.dispatch((width + decode_tile - 1) / decode_tile, (height + decode_tile - 1) / decode_tile);
+          // One dispatch per class; the list pass wrote each one's group count (0 when empty).
+          for (std::uint32_t c = 0; c < tap_classes; ++c) {
+            pass.push(DecodePush{width, height, index, c});
+            pass.dispatch_indirect(res.buffer(d.groups), (std::uint64_t(index) * tap_classes + c) * 16 + 4);
+          }
           pass.end();
         });
     radiance = decode.radiance;
@@ -560,7 +648,7 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
         d.radiance = b.read(radiance, BufferUse::StorageRead);
         d.color = b.write(shared.color, TextureUse::ColorAttachment);
       },
-      [state, width, height](const PassResources& res, const ResolveData& d, PassContext& ctx) {
+      [state, width](const PassResources& res, const ResolveData& d, PassContext& ctx) {
         auto group = ctx.device().create_bind_group(
             {.label = "neural-btf-resolve",
              .layout = &state->resolve_layout,
@@ -572,7 +660,7 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
              .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}}});
         pass.set_pipeline(state->resolve_pipeline);
         pass.set_bind_group(0, resolve_group);
-        pass.push(DecodePush{width, height, 0, 0});
+        pass.push(width);
         pass.draw(3);
         pass.end();
       });

@@ -233,6 +233,95 @@ void main() {
   expect_no_validation_messages();
 }
 
+TEST_CASE("dispatch_indirect runs the group count a shader wrote; a bad args buffer is an error naming it") {
+  // The flow weft's neural BTF list uses: a shader counts work and writes the group count, the
+  // next dispatch reads it (barrier storage-write -> indirect), under synchronization validation.
+  const std::uint32_t n = 1000;  // 16 groups of 64, the last partly used
+  auto out = device().create_buffer({.label = "out", .size = 1024 * 4, .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopySrc | gpu::BufferUsage::CopyDst});
+  auto args = device().create_buffer({.label = "args", .size = 16, .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::Indirect});
+  REQUIRE(out);
+  REQUIRE(args);
+  auto count = device().create_shader_module({.label = "count", .stage = gpu::ShaderStage::Compute, .glsl = R"(#version 460
+layout(local_size_x = 1) in;
+layout(set = 0, binding = 0) writeonly buffer Args { uint pad, gx, gy, gz; };  // uvec3 would align to 16
+layout(push_constant) uniform P { uint n; };
+void main() { gx = (n + 63u) / 64u; gy = 1u; gz = 1u; })"});
+  auto mark = device().create_shader_module({.label = "mark", .stage = gpu::ShaderStage::Compute, .glsl = R"(#version 460
+layout(local_size_x = 64) in;
+layout(set = 0, binding = 0) writeonly buffer Out { uint y[]; };
+layout(push_constant) uniform P { uint n; };
+void main() { if (gl_GlobalInvocationID.x < n) y[gl_GlobalInvocationID.x] = gl_GlobalInvocationID.x + 1u; })"});
+  REQUIRE_MESSAGE(count, (count ? "" : count.error().message));
+  REQUIRE_MESSAGE(mark, (mark ? "" : mark.error().message));
+  auto bgl = device().create_bind_group_layout({.label = "one", .entries = {{0, gpu::BindingType::StorageBuffer, gpu::ShaderStage::Compute}}});
+  REQUIRE(bgl);
+  auto layout = device().create_pipeline_layout({.label = "one", .bind_group_layouts = {&*bgl}, .push_constant_size = 4});
+  REQUIRE(layout);
+  auto count_pipeline = device().create_compute_pipeline({.label = "count", .layout = &*layout, .module = &*count});
+  auto mark_pipeline = device().create_compute_pipeline({.label = "mark", .layout = &*layout, .module = &*mark});
+  REQUIRE(count_pipeline);
+  REQUIRE(mark_pipeline);
+  auto args_group = device().create_bind_group({.label = "args", .layout = &*bgl, .entries = {gpu::bind(0, *args)}});
+  auto out_group = device().create_bind_group({.label = "out", .layout = &*bgl, .entries = {gpu::bind(0, *out)}});
+  REQUIRE(args_group);
+  REQUIRE(out_group);
+  SUBCASE("the written count runs") {
+    auto enc = device().create_command_encoder("indirect");
+    REQUIRE(enc);
+    enc->fill_buffer(*out, 0);
+    {
+      auto pass = enc->begin_compute_pass("count");
+      pass.set_pipeline(*count_pipeline);
+      pass.set_bind_group(0, *args_group);
+      pass.push(n);
+      pass.dispatch(1);
+      pass.end();
+    }
+    const gpu::BufferBarrier barriers[] = {{&*args, gpu::Access::StorageWrite, gpu::Access::IndirectBuffer},
+                                           {&*out, gpu::Access::CopyDst, gpu::Access::StorageWrite}};
+    enc->barrier({}, barriers);
+    {
+      auto pass = enc->begin_compute_pass("mark");
+      pass.set_pipeline(*mark_pipeline);
+      pass.set_bind_group(0, *out_group);
+      pass.push(n);
+      pass.dispatch_indirect(*args, 4);
+      pass.end();
+    }
+    auto cmd = enc->finish();
+    REQUIRE_MESSAGE(cmd, (cmd ? "" : cmd.error().message));
+    REQUIRE(device().queue().submit(std::move(*cmd)));
+    auto back = device().queue().read_buffer(*out);
+    REQUIRE(back);
+    auto y = as_vector<std::uint32_t>(*back);
+    int wrong = 0;
+    for (std::uint32_t i = 0; i < 1024; ++i)
+      if (y[i] != (i < n ? i + 1 : 0u)) ++wrong;  // 15 groups would miss the last 40
+    CHECK(wrong == 0);
+  }
+  SUBCASE("without indirect usage, or reading past the end") {
+    for (std::uint64_t offset : {std::uint64_t(0), std::uint64_t(8), std::uint64_t(2)}) {
+      CAPTURE(offset);
+      auto enc = device().create_command_encoder("bad-indirect");
+      REQUIRE(enc);
+      {
+        auto pass = enc->begin_compute_pass("mark");
+        pass.set_pipeline(*mark_pipeline);
+        pass.set_bind_group(0, *out_group);
+        pass.push(n);
+        pass.dispatch_indirect(offset == 0 ? *out : *args, offset);
+        pass.end();
+      }
+      auto cmd = enc->finish();
+      REQUIRE(!cmd);
+      CHECK(contains(cmd.error().message, "'mark'"));
+      CHECK(contains(cmd.error().message, offset == 0 ? "'out'" : "'args'"));
+      CHECK(contains(cmd.error().message, offset == 0 ? "indirect usage" : "offset"));
+    }
+  }
+  expect_no_validation_messages();
+}
+
 TEST_CASE("render to texture: depth test keeps the nearer quad, colours exact at known pixels") {
   const std::uint32_t w = 64, h = 48;
   auto color = device().create_texture({.label = "rt-color", .size = {w, h, 1}, .format = gpu::Format::RGBA8Unorm,

@@ -441,14 +441,75 @@ TEST_CASE("the cushion scene through the batched decoder equals the fragment dec
   weft::test::expect_no_validation_messages();
 }
 
+TEST_CASE("the batched path over two models and all four tap classes equals the fragment path; edge tiles partly off-frame") {
+  // Four quads: taps per pixel 1 (nearest, no ambient), 2 (nearest + ambient), 4 (bilinear, no
+  // ambient) and 8 (bilinear + ambient), so each of the decode's four lists is used; the paper-
+  // shaped model goes through the tiled decoder, a narrower one through the generic per-row
+  // decoder. 75 x 53 pixels: the 16 x 16 list tiles run off the frame's right and bottom edges.
+  const std::string paper = save_model(displayable_model(3, true), "classes_paper.wbtf");
+  btf::NeuralBtf narrow_model = btf::random_model({.width = 5, .height = 3, .hidden = {24, 20}, .seed = 29});
+  for (float& b : narrow_model.decoder.layers.back().bias) b = 0.3f;
+  const std::string narrow = save_model(narrow_model, "classes_narrow.wbtf");
+  auto scene_json = [&](const char* decoder, float tint) {
+    std::string materials, objects;
+    const char* filters[] = {"nearest", "nearest", "bilinear", "bilinear"};
+    const bool ambient[] = {false, true, false, true};
+    const float at[][2] = {{-0.55f, 0.55f}, {0.55f, 0.55f}, {-0.55f, -0.55f}, {0.55f, -0.55f}};
+    for (int i = 0; i < 4; ++i) {
+      materials += weft::format(R"({0}"m{1}": {{"type": "neural_btf", "model": "{2}", "filter": "{5}", "ambient": {6},
+                                    "shadow": false, "uv_scale": [2, 2], "tint": [{4}, {4}, {4}], "decoder": "{3}"}})",
+                                i ? ", " : "", i, i % 2 ? narrow : paper, decoder, tint, filters[i], ambient[i]);
+      objects += weft::format(R"({}{{"name": "q{}", "mesh": "quad", "material": "m{}",
+                                  "transform": {{"translation": [{}, {}, 0], "rotation_degrees": [90, 0, 0]}}}})",
+                              i ? ", " : "", i, i, at[i][0], at[i][1]);
+    }
+    return weft::format(R"({{"version": 1, "output": {{"width": 75, "height": 53}},
+      "camera": {{"position": [0, 0, 40], "target": [0, 0, 0], "fov": 3.4, "near": 30, "far": 50}},
+      "environment": {{"color": [0.3, 0.35, 0.4]}},
+      "lights": [{{"type": "directional", "direction": [0.3, -0.2, -1], "intensity": 1.5}}],
+      "meshes": {{"quad": {{"primitive": "plane", "size": 1, "subdivisions": 1}}}},
+      "materials": {{{}}}, "objects": [{}]}})",
+                        materials, objects);
+  };
+  auto render = [&](const char* decoder, float tint = 1.0f) {
+    auto s = load(scene_json(decoder, tint));
+    auto frame = shared_renderer().render(s, {.quality = Quality::Medium, .aces = false, .read_hdr = true});
+    REQUIRE_MESSAGE(frame, (frame ? "" : frame.error().message));
+    return std::move(*frame);
+  };
+  const auto batched = render("batched");
+  const auto fragment = render("fragment");
+  const auto black = render("batched", 0.0f);  // the background and nothing of the cloth
+  for (const char* pass : {"neural_btf_list", "neural_btf_decode", "neural_btf_list_1", "neural_btf_decode_1"})
+    CHECK_MESSAGE(std::find(batched.passes.begin(), batched.passes.end(), pass) != batched.passes.end(), pass);
+  double sum = 0.0, worst = 0.0;
+  int lit[4] = {};  // per quadrant: pixels whose cloth is visibly lit
+  for (std::uint32_t y = 0; y < 53; ++y)
+    for (std::uint32_t x = 0; x < 75; ++x)
+      for (std::uint32_t ch = 0; ch < 3; ++ch) {
+        const double a = batched.hdr.at(x, y, ch), b = fragment.hdr.at(x, y, ch);
+        REQUIRE(std::isfinite(a));
+        sum += (a - b) * (a - b);
+        worst = std::max(worst, std::abs(a - b));
+        if (ch == 0 && b - black.hdr.at(x, y, ch) > 0.05) ++lit[(y < 53 / 2 ? 0 : 2) + (x < 75 / 2 ? 0 : 1)];
+      }
+  const double rmse = std::sqrt(sum / (75.0 * 53.0 * 3.0));
+  MESSAGE("two models, four tap classes: batched vs fragment RMSE " << rmse << ", max |Δ| " << worst);
+  for (int q = 0; q < 4; ++q) CHECK_MESSAGE(lit[q] > 200, "quadrant " << q << " has " << lit[q] << " lit pixels");
+  CHECK(rmse <= 1e-4);
+  CHECK(worst <= 1e-3);
+  weft::test::expect_no_validation_messages();
+}
+
 TEST_CASE("the renderer adds the neural_btf pass only for scenes that use the material") {
   const std::string path = save_model(displayable_model(3, false), "culling.wbtf");
   const std::string light = R"([{"type": "directional", "direction": [0, 0, -1], "intensity": 1}])";
   auto with = load(quad_scene(weft::format(R"({{"type": "neural_btf", "model": "{}"}})", path), light));
   auto report = shared_renderer().describe(with, {.quality = Quality::Low});
   REQUIRE_MESSAGE(report, (report ? "" : report.error().message));
-  CHECK(report->passes == std::vector<std::string>{"shadow_map", "forward", "neural_btf", "neural_btf_decode",
-                                                   "neural_btf_resolve", "background", "tonemap"});
+  CHECK(report->passes == std::vector<std::string>{"shadow_map", "forward", "neural_btf", "neural_btf_list_clear",
+                                                   "neural_btf_list", "neural_btf_decode", "neural_btf_resolve",
+                                                   "background", "tonemap"});
   CHECK(report->dot.find("neural_btf_model") != std::string::npos);
   auto plain = load(quad_scene(R"({"type": "standard"})", light));
   auto other = shared_renderer().describe(plain, {.quality = Quality::Low});

@@ -1,6 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-// The batched material path for the paper's decoder shape (see btf_decode_tiles.glsl).
+// The batched path's decode for the paper's decoder shape (see btf_decode_taps.glsl).
 #define BTF_TILED_PAPER
-#include "btf_decode_tiles.glsl"
+#include "btf_decode_taps.glsl"
