@@ -247,7 +247,7 @@ void frame_table(Session& s, const Options& o, double peak_gflops, double device
   auto r = renderer::Renderer::create(s.device);
   if (!r) return;
   std::printf("\n## A %u x %u frame covered by a neural_btf quad (clustered k = 500 model)\n\n", o.size, o.size);
-  std::printf("The neural_btf passes' time (batched: neural_btf geometry + neural_btf_decode + neural_btf_resolve; "
+  std::printf("The neural_btf passes' time (batched: neural_btf geometry + neural_btf_list_clear + neural_btf_list + neural_btf_decode + neural_btf_resolve; "
               "fragment: the neural_btf pass), each pass submitted and waited for alone on the wall clock "
               "(serial passes: llvmpipe's timestamps miss work it defers past a pass's end), medians of %d runs, "
               "the two decoders alternating; frame ms is the whole serial frame.\n\n", o.runs);

@@ -1,7 +1,7 @@
 // The neural BTF decoder as batched matrix products: each invocation decodes BTF_T_ROWS rows
 // (texel, ω_i, ω_o) at once, a workgroup of 32 a batch of 256. Shared by the decode kernel's
 // tiled variant (btf_decode_tiled.comp: tests, benchmark) and the batched material path
-// (btf_decode_tiles.glsl). The includer includes btf_decode.glsl first.
+// (btf_decode_taps.glsl). The includer includes btf_decode.glsl first.
 //
 // Why this shape (docs/neural-btf.md, "The batched decode"): on lavapipe an invocation is one
 // lane of an 8-wide SIMD vector, and a load from a buffer, even at an address every lane

@@ -1,6 +1,6 @@
 // Which BTF texels a texel coordinate reads, and with what weights: nearest (one tap) or
 // bilinear (four). Shared by the fragment decode (neural_btf_surface.glsl) and the tiled
-// compute decode (btf_decode_tiles.glsl), so both read exactly the same texels.
+// compute decode (btf_decode_taps.glsl), so both read exactly the same texels.
 #ifndef WEFT_BTF_TAPS_GLSL
 #define WEFT_BTF_TAPS_GLSL
 
