@@ -24,6 +24,9 @@ module;
 #include <string_view>
 #include <vector>
 #include <weft/try.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 module weft.btf.training;
 import weft.cluster;
 
@@ -141,7 +144,26 @@ std::string describe_seconds(double s) {
   return weft::format("{} h {} min", total / 3600, total / 60 % 60);
 }
 
+namespace {
+// A training step allocates and frees buffers of a few hundred KiB (im2col columns, per-stage
+// activations, per-chunk gradients). glibc serves such sizes with mmap, or trims them off the
+// heap's top when freed, so every step page-faulted and zeroed them afresh: about half of the
+// step's time (perf, weft-bench-btf-train --throughput). Fixed thresholds keep them mapped for
+// the process's life; a training process peaks near its steady state anyway.
+void keep_freed_memory_mapped() {
+#if defined(__GLIBC__)
+  static const bool once = [] {
+    mallopt(M_MMAP_THRESHOLD, 64 << 20);
+    mallopt(M_TRIM_THRESHOLD, 256 << 20);
+    return true;
+  }();
+  (void)once;
+#endif
+}
+}  // namespace
+
 Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
+  keep_freed_memory_mapped();
   WEFT_TRY_VOID(validate(btf, "training data"));
   if (o.batch == 0) return fail(ErrorKind::InvalidArgument, "training batch 0 (must be at least 1 texel)");
   if (o.epochs == 0) return fail(ErrorKind::InvalidArgument, "training epochs 0 (must be at least 1)");
