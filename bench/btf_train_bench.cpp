@@ -135,8 +135,9 @@ int main(int argc, char** argv) {
 
   if (throughput > 0) {
     // Both schedules on the same data and options, alternating, so load changes hit both.
-    std::printf("throughput: plain model, %u steps per run, batch %u, %s directions per texel, %zu threads, load %s\n",
-                throughput, batch, directions ? std::to_string(directions).c_str() : "all", threads, [] {
+    std::printf("throughput: plain model, %u steps per run, batch %u, %s directions per texel, %zu threads, training SIMD %s, load %s\n",
+                throughput, batch, directions ? std::to_string(directions).c_str() : "all", threads,
+                std::string(training_simd_width()).c_str(), [] {
                   static char buffer[64] = "?";
                   if (std::FILE* f = std::fopen("/proc/loadavg", "r")) {
                     if (!std::fgets(buffer, sizeof buffer, f)) buffer[0] = 0;

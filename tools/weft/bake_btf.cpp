@@ -137,9 +137,10 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
             };
             if (a->clusters > data.texels())
               return invalid(weft::format("--clusters {} is more than the {} texels of {}", a->clusters, data.texels(), source));
-            std::printf("training on %s: %u x %u texels, %zu x %zu directions, %s\n", source.c_str(), data.width,
-                        data.height, data.lights.size(), data.views.size(),
-                        a->clusters ? weft::format("k = {} clusters", a->clusters).c_str() : "plain (a latent per texel)");
+            std::printf("training on %s: %u x %u texels, %zu x %zu directions, %s, training SIMD %s\n", source.c_str(),
+                        data.width, data.height, data.lights.size(), data.views.size(),
+                        a->clusters ? weft::format("k = {} clusters", a->clusters).c_str() : "plain (a latent per texel)",
+                        std::string(btf::training_simd_width()).c_str());
             std::fflush(stdout);
             auto trained = btf::train_neural_btf(data, o);
             if (!trained) return failed(trained.error());

@@ -31,7 +31,7 @@ struct Writer {
   }
   template <class T>
   void value(const T& v) { raw(&v, sizeof v); }
-  void floats(const std::vector<float>& v) {
+  void floats(const Floats& v) {
     value(std::uint64_t(v.size()));
     raw(v.data(), v.size() * sizeof(float));
   }
@@ -48,7 +48,7 @@ struct Reader {
   }
   template <class T>
   bool value(T& v) { return raw(&v, sizeof v); }
-  bool floats(std::vector<float>& v) {
+  bool floats(Floats& v) {
     std::uint64_t n = 0;
     if (!value(n) || n > (bytes.size() - at) / sizeof(float)) return false;
     v.resize(n);

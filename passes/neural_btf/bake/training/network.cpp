@@ -88,13 +88,13 @@ struct EncoderCache {
     std::vector<RowMatrix> cols;                      // im2col of the stage input, per item
     std::vector<std::vector<std::uint32_t>> argmax;   // per item: pooled index -> conv pixel
     std::vector<RowMatrix> xhat;                      // per item: normalised pooled (C x P)
-    std::vector<float> inv_std;                       // per channel
+    Floats inv_std;                       // per channel
   };
   std::array<Stage, 3> stages;
   std::vector<Eigen::VectorXf> flat;  // per item: the fully connected layer's input
   // Per item, reused from step to step: allocating these each time (hundreds of KiB) cost more
   // in page faults and zeroing than the arithmetic on them.
-  std::vector<std::vector<float>> input;  // a stage's input, CHW
+  std::vector<Floats> input;  // a stage's input, CHW
   mutable std::vector<RowMatrix> conv_out, dz, dcols, dx;
 };
 
@@ -267,7 +267,7 @@ void run_encoder(Network& network, std::span<const float* const> inputs, bool tr
     // Batch norm per channel over (batch, pixels).
     st.inv_std.assign(conv.out, 0.0f);
     const double count = double(batch * out_pixels);
-    std::vector<float> mean(conv.out), var(conv.out);
+    Floats mean(conv.out), var(conv.out);
     for (std::uint32_t c = 0; c < conv.out; ++c) {
       mean[c] = network.running_mean[bn_offset + c], var[c] = network.running_var[bn_offset + c];
       if (training) {
@@ -398,7 +398,7 @@ void encoder_backward(const Network& network, const EncoderCache& cache, std::sp
         item_dy_xhat[b * conv.out + c] = double((dy[b].row(c).array() * st.xhat[b].row(c).array()).sum());
       }
     });
-    std::vector<float> mean_dy(conv.out), mean_dy_xhat(conv.out), k(conv.out);
+    Floats mean_dy(conv.out), mean_dy_xhat(conv.out), k(conv.out);
     for (std::uint32_t c = 0; c < conv.out; ++c) {
       double sum_dy = 0.0, sum_dy_xhat = 0.0;
       for (std::size_t b = 0; b < batch; ++b) {

@@ -136,6 +136,8 @@ std::string_view to_string(LearningRateSchedule schedule) {
   return schedule == LearningRateSchedule::Cosine ? "cosine" : "constant";
 }
 
+std::string_view training_simd_width() { return WEFT_TRAINING_SIMD; }
+
 std::string describe_seconds(double s) {
   if (!(s >= 0.0) || !std::isfinite(s)) return "?";
   if (s < 60.0) return weft::format("{:.1f} s", s);
@@ -229,7 +231,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
       if (o.texel_scales) {
         // The paper's fix for blotchy clusters: texel luminance / its cluster median's. A dark
         // median (no luminance to divide by) keeps scale 1.
-        std::vector<float> median_lum(k);
+        Floats median_lum(k);
         for (std::size_t c = 0; c < k; ++c)
           median_lum[c] = abrdf_luminance(std::span<const float>(clustering.medians).subspan(c * d.floats, d.floats));
         d.scales.resize(d.texels);
@@ -279,7 +281,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
 
   TrainState state;
   state.fingerprint = fp.digest();
-  std::vector<float> latents;
+  Floats latents;
   if (o.resume && std::filesystem::exists(o.checkpoint)) {
     WEFT_TRY(auto loaded, training_detail::load_checkpoint(o.checkpoint));
     if (loaded.fingerprint != state.fingerprint)
@@ -288,7 +290,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
                   "optimizer, schedule, hold-out, directions per texel or network differ)",
                   o.checkpoint.string());
     const std::size_t P = net.parameters.size(), LL = d.latent_count * L;
-    auto sized = [](const std::vector<float>& v, std::size_t n) { return v.empty() || v.size() == n; };
+    auto sized = [](const Floats& v, std::size_t n) { return v.empty() || v.size() == n; };
     if (loaded.parameters.size() != P || loaded.running_mean.size() != net.running_mean.size() ||
         (loaded.finetuning && loaded.latents.size() != LL) || !sized(loaded.moment1, P) ||
         !sized(loaded.moment2, P) || !sized(loaded.latent_moment1, LL) || !sized(loaded.latent_moment2, LL) ||
@@ -317,7 +319,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
   };
   const ParallelFn encoder_parallel = o.batched ? parallel : ParallelFn{};
 
-  auto encode_into = [&](std::span<const std::uint32_t> which, std::vector<float>& out) {
+  auto encode_into = [&](std::span<const std::uint32_t> which, Floats& out) {
     std::vector<const float*> all(which.size());
     for (std::size_t i = 0; i < which.size(); ++i) all[i] = d.encoder_inputs.data() + std::size_t(which[i]) * d.floats;
     batch_norm_population(net, all, 64, encoder_parallel);
@@ -347,7 +349,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     std::sort(validation_texels.begin(), validation_texels.end());
   }
   auto validation_rmse = [&]() -> double {
-    std::vector<float> vl;
+    Floats vl;
     if (!state.finetuning) {
       std::vector<std::uint32_t> which(validation_texels.size());
       for (std::size_t i = 0; i < which.size(); ++i) which[i] = d.latent_of[validation_texels[i]];
@@ -358,7 +360,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     run_blocks(validation_texels.size(), [&](std::size_t i) {
       const std::uint32_t t = validation_texels[i];
       const float* latent = state.finetuning ? latents.data() + std::size_t(d.latent_of[t]) * L : vl.data() + i * L;
-      std::vector<float> x(in * n), y(3 * n);
+      Floats x(in * n), y(3 * n);
       for (std::size_t j = 0; j < n; ++j) {
         float* col = x.data() + j * in;
         std::copy_n(latent, L, col);
@@ -388,7 +390,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     state.parameters = net.parameters;
     state.running_mean = net.running_mean;
     state.running_var = net.running_var;
-    state.latents = state.finetuning ? latents : std::vector<float>{};
+    state.latents = state.finetuning ? latents : Floats{};
     const double now = elapsed();
     const double before = state.elapsed_s;
     state.elapsed_s = now;
@@ -401,7 +403,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     state.best_running_mean = net.running_mean;
     state.best_running_var = net.running_var;
     state.best_finetuning = state.finetuning;
-    state.best_latents = state.finetuning ? latents : std::vector<float>{};
+    state.best_latents = state.finetuning ? latents : Floats{};
   };
   auto restore_best = [&] {
     net.parameters = state.best_parameters;
@@ -421,9 +423,9 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
 
   std::vector<std::uint32_t> order(d.texels);
   std::size_t order_epoch = std::size_t(-1);
-  std::vector<float> gradient(net.parameters.size());
-  std::vector<std::vector<float>> chunk_gradients;
-  std::vector<std::vector<float>> chunk_latent_gradients;
+  Floats gradient(net.parameters.size());
+  std::vector<Floats> chunk_gradients;
+  std::vector<Floats> chunk_latent_gradients;
   std::vector<double> chunk_loss;
   std::vector<std::uint32_t> pair_index(trainable);
   auto cache = make_encoder_cache();
@@ -452,7 +454,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     std::vector<std::uint32_t> texels(order.begin() + std::ptrdiff_t(first),
                                       order.begin() + std::ptrdiff_t(first + batch));
     // Latents of the batch: the encoder's (stage 1) or the stored ones (stage 2).
-    std::vector<float> batch_latents(batch * L);
+    Floats batch_latents(batch * L);
     if (!state.finetuning) {
       std::vector<const float*> ptrs(batch);
       for (std::size_t b = 0; b < batch; ++b) ptrs[b] = d.encoder_inputs.data() + std::size_t(d.latent_of[texels[b]]) * d.floats;
@@ -496,7 +498,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     run_blocks(chunks.size(), [&](std::size_t ci) {
       const Chunk& c = chunks[ci];
       const std::size_t n = c.end - c.begin, first_item = c.begin / per_texel;
-      std::vector<float> x(in * n), target(3 * n), dx(in * n), scales;
+      Floats x(in * n), target(3 * n), dx(in * n), scales;
       if (!d.scales.empty()) scales.resize(n);
       for (std::size_t j = 0; j < n; ++j) {
         const std::size_t sample = c.begin + j, item = sample / per_texel, t = texels[item];
@@ -520,7 +522,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
       }
     });
     std::fill(gradient.begin(), gradient.end(), 0.0f);
-    std::vector<float> latent_gradient(batch * L, 0.0f);
+    Floats latent_gradient(batch * L, 0.0f);
     for (std::size_t ci = 0; ci < chunks.size(); ++ci) {
       const auto& g = chunk_gradients[ci];
       for (std::size_t i = net.decoder_begin; i < g.size(); ++i) gradient[i] += g[i];
@@ -573,7 +575,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
       if (state.finetuning) {
         // A latent shared by several texels of the batch (clusters) gets one update of their sum.
         std::vector<std::uint32_t> touched;
-        std::vector<float> summed;
+        Floats summed;
         for (std::size_t b = 0; b < batch; ++b) {
           const std::uint32_t id = d.latent_of[texels[b]];
           auto at = std::find(touched.begin(), touched.end(), id);
@@ -674,7 +676,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
   m.height = btf.height;
   m.latent_size = std::uint32_t(L);
   m.decoder = decoder_of(net);
-  m.latents = latents;
+  m.latents.assign(latents.begin(), latents.end());
   if (o.clusters) m.cluster_ids = d.latent_of;
   m.texel_scales = d.scales;
   m.output_scale = result.preprocessing.target_max;

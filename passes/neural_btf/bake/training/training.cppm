@@ -12,6 +12,7 @@ module;
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <new>
 #include <span>
 #include <string>
 #include <string_view>
@@ -37,13 +38,31 @@ struct NetworkShape {
   std::vector<std::uint32_t> hidden{106, 106, 106};  // the paper's decoder (24,383 parameters)
 };
 
+// Storage for the numbers the training hands to Eigen: 64-byte aligned. With AVX, Eigen does a
+// misaligned vector's head and tail on another code path than its middle, so with malloc's
+// 16-byte alignment a result would depend on where a buffer happened to land (and so on the
+// thread count, or on a checkpoint resume). tests/neural_btf/misaligned_new.cpp checks it.
+template <class T>
+struct SimdAllocator {
+  using value_type = T;
+  static constexpr std::align_val_t alignment{64};
+  SimdAllocator() = default;
+  template <class U>
+  SimdAllocator(const SimdAllocator<U>&) noexcept {}
+  T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), alignment)); }
+  void deallocate(T* p, std::size_t) noexcept { ::operator delete(p, alignment); }
+  template <class U>
+  bool operator==(const SimdAllocator<U>&) const noexcept { return true; }
+};
+using Floats = std::vector<float, SimdAllocator<float>>;
+
 // Every trainable number lives in one flat vector (SGD, gradients, checkpoints and the
 // gradient check treat it as one), with offsets into it; batch norm's running statistics
 // (used when encoding after training) are kept apart because they are not trained.
 struct Network {
   NetworkShape shape;
-  std::vector<float> parameters;
-  std::vector<float> running_mean, running_var;  // per batch-norm channel, stages concatenated
+  Floats parameters;
+  Floats running_mean, running_var;  // per batch-norm channel, stages concatenated
 
   // Offsets into `parameters`; filled by make_network.
   struct Conv { std::size_t weights, bias, gamma, beta; std::uint32_t in, out, rows, cols, pooled_rows, pooled_cols; };
@@ -212,6 +231,10 @@ struct TrainResult {
 // "12 min 5 s", "3.2 s": for progress lines.
 [[nodiscard]] std::string describe_seconds(double seconds);
 
+// The SIMD width the training was compiled for ("baseline", "avx2" or "avx512": CMake's
+// WEFT_TRAINING_SIMD). Eigen sums in another order at each, so a bake's bytes depend on it.
+[[nodiscard]] std::string_view training_simd_width();
+
 }  // namespace weft::btf
 
 // Shared by the implementation files (train.cpp, checkpoint.cpp); exported only so that
@@ -226,15 +249,15 @@ struct TrainState {
   double elapsed_s = 0.0;            // training time of earlier runs
   double epoch_loss = 0.0, epoch_count = 0.0;
   double last_epoch_loss = 0.0;
-  std::vector<float> parameters, running_mean, running_var, latents;
+  Floats parameters, running_mean, running_var, latents;
   // Adam: the step count and the moments of the parameters and (fine-tuning) the latents.
   std::uint64_t adam_steps = 0;
-  std::vector<float> moment1, moment2, latent_moment1, latent_moment2;
+  Floats moment1, moment2, latent_moment1, latent_moment2;
   // Early stopping: the best held-out RMSE so far, its epoch, epochs since, and that model.
   double best_rmse = -1.0, last_rmse = -1.0;
   std::uint64_t best_epoch = 0, stale = 0;
   bool best_finetuning = false;
-  std::vector<float> best_parameters, best_running_mean, best_running_var, best_latents;
+  Floats best_parameters, best_running_mean, best_running_var, best_latents;
 };
 Result<void> save_checkpoint(const std::filesystem::path& file, const TrainState& state);
 Result<TrainState> load_checkpoint(const std::filesystem::path& file);
