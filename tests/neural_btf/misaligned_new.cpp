@@ -1,11 +1,9 @@
 // Linked into test_btf_training_misaligned only: a global operator new that places each block
 // 16, 32 or 48 bytes past a 64-byte boundary, in turn. malloc's 16-byte alignment leaves where a
 // buffer falls against a SIMD vector to chance; this makes it vary on purpose, so the training's
-// determinism tests check that no result depends on it. With AVX (WEFT_TRAINING_SIMD=avx2 or
-// avx512), Eigen computes a misaligned vector's head and tail on another path than its middle,
-// so the training keeps what it hands to Eigen in 64-byte-aligned storage; with avx512 this
-// test still failed once in a loaded run, so the default width stays baseline (SSE2, where
-// malloc's 16-byte alignment is all Eigen uses).
+// determinism tests check that no result depends on it. With AVX (WEFT_TRAINING_SIMD auto on an
+// AVX machine, avx2 or avx512), Eigen computes a misaligned vector's head and tail on another
+// path than its middle, so the training keeps what it hands to Eigen in 64-byte-aligned storage.
 #include <atomic>
 #include <cstddef>
 #include <cstdint>

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 #include <glm/glm.hpp>
+#include <unistd.h>
 import weft.core;
 import weft.btf;
 import weft.btf.model;
@@ -42,6 +43,12 @@ Btf make_btf(std::uint32_t w, std::uint32_t h, F f) {
         for (std::size_t c = 0; c < 3; ++c)
           b.rgb[((t * b.lights.size() + l) * b.views.size() + v) * 3 + c] = f(t, l, v, c);
   return b;
+}
+
+// A file of this process's own: test_btf_training and test_btf_training_misaligned run at the
+// same time under ctest -j, and a shared checkpoint name let one read the other's file.
+std::filesystem::path own_temp_file(const std::string& name) {
+  return std::filesystem::temp_directory_path() / (name + "-" + std::to_string(::getpid()));
 }
 
 Btf tiny_fabric() {
@@ -280,7 +287,7 @@ TEST_CASE("a tiny fabric trains to a bounded RMSE and decode() equals the traini
   const double reference = weft::btf::rmse(btf, [&](std::size_t t, const vec3& li, const vec3& vo) { return decode(r.model, t, li, vo); }, 1);
   CHECK(*rmse == doctest::Approx(reference).epsilon(1e-4));
   // The model survives the file.
-  const auto file = std::filesystem::temp_directory_path() / "weft_test_btf_training.wbtf";
+  const auto file = own_temp_file("weft_test_btf_training.wbtf");
   REQUIRE(save_wbtf(r.model, file));
   auto back = load_wbtf(file);
   REQUIRE(back);
@@ -435,7 +442,7 @@ TEST_CASE("Adam, a cosine schedule and early stopping: thread-independent, and t
 
 TEST_CASE("checkpoint resume equals uninterrupted training, and a foreign checkpoint is refused") {
   const Btf btf = tiny_fabric();
-  const auto file = std::filesystem::temp_directory_path() / "weft_test_btf_training.ckpt";
+  const auto file = own_temp_file("weft_test_btf_training.ckpt");
   for (const bool adam : {false, true}) {
   CAPTURE(adam);
   std::filesystem::remove(file);
