@@ -1,6 +1,8 @@
-// The encoder and decoder, forward and backward by hand on Eigen matrices. Convolutions are
-// im2col + one matrix product; batch norm normalises over the batch and the pixels of each
-// channel (the standard convolutional batch norm), so its backward pass couples the batch.
+// The encoder and decoder, forward and backward by hand. Convolutions run directly on
+// zero-padded planes (one multiply-add pass per tap; no im2col matrix), with sums in a fixed
+// order whatever the buffers' alignment; the fully connected layers and the decoder are Eigen
+// matrix products. Batch norm normalises over the batch and the pixels of each channel (the
+// standard convolutional batch norm), so its backward pass couples the batch.
 module;
 #include <algorithm>
 #include <array>
@@ -34,49 +36,132 @@ constexpr float kBatchNormMomentum = 0.1f;
 
 std::uint32_t pooled(std::uint32_t n) { return (n + 2) / 3; }  // max-pool 3 stride 3, partial windows kept
 
-// im2col for a 3x3 kernel, stride 1, zero padding 1: row (ci*9 + ky*3 + kx), column y*W + x.
-// Each row is the image shifted by (ky - 1, kx - 1): per image row, one copy of the columns
-// that stay inside and zeros at the one-pixel border.
-void im2col(const float* x, std::uint32_t channels, std::uint32_t rows, std::uint32_t cols, RowMatrix& out) {
-  out.resize(Eigen::Index(channels) * 9, Eigen::Index(rows) * cols);
-  const int W = int(cols);
-  for (std::uint32_t c = 0; c < channels; ++c)
-    for (int ky = 0; ky < 3; ++ky)
-      for (int kx = 0; kx < 3; ++kx) {
-        float* dst = out.row(Eigen::Index(c * 9 + ky * 3 + kx)).data();
-        const int x0 = std::max(0, 1 - kx), x1 = std::min(W, W + 1 - kx);  // columns whose source is inside
-        for (std::uint32_t y = 0; y < rows; ++y) {
-          float* d = dst + std::size_t(y) * cols;
-          const int sy = int(y) + ky - 1;
-          if (sy < 0 || sy >= int(rows) || x1 <= x0) {
-            std::fill_n(d, cols, 0.0f);
-            continue;
-          }
-          const float* src = x + (std::size_t(c) * rows + std::size_t(sy)) * cols + (kx - 1);
-          std::fill(d, d + x0, 0.0f);
-          std::copy(src + x0, src + x1, d + x0);
-          std::fill(d + x1, d + W, 0.0f);
-        }
-      }
+// A stage's input as the convolution reads it: each channel a plane of (rows + 2) x (cols + 2)
+// with a border of zeros (the 3x3 kernel's padding of 1). The convolution's output keeps the
+// padded row length: output pixel (y, x) sits at y * width + x, and the two columns past cols in
+// each row are spare. The kernels below work in whole strips of outputs, so every plane has
+// zeros to spare up to a whole number of strips (`strips`: the outputs a kernel computes).
+constexpr std::size_t kStrip = 128;  // outputs per register-blocked strip (8 x 16 lanes)
+struct Planes {
+  std::size_t width, span, strips, size;  // padded row length; outputs; outputs rounded up to strips; floats per input plane
+};
+Planes planes_of(const Network::Conv& c) {
+  const std::size_t width = std::size_t(c.cols) + 2, span = std::size_t(c.rows) * width;
+  const std::size_t strips = (span + kStrip - 1) / kStrip * kStrip;
+  return {width, span, strips, 2 * width + 2 + strips};
+}
+std::size_t tap_offset(const Planes& p, std::size_t tap) { return (tap / 3) * p.width + tap % 3; }
+
+// The convolution's kernels below keep their partial sums in fixed lanes (kLanes per
+// accumulator) and add them up in a fixed order, so every result follows from the code alone,
+// not from where a buffer lies or from the SIMD width the compiler picks; a strip of lanes
+// stays in registers across all the taps.
+constexpr std::size_t kLanes = 16;
+static_assert(kStrip % kLanes == 0);
+
+inline float madd(float a, float b, float c) {
+#ifdef __FMA__
+  return std::fma(a, b, c);
+#else
+  return a * b + c;
+#endif
 }
 
-// The adjoint of im2col: scatters column gradients back onto the image.
-void col2im(const RowMatrix& dcols, std::uint32_t channels, std::uint32_t rows, std::uint32_t cols, float* dx) {
-  std::fill_n(dx, std::size_t(channels) * rows * cols, 0.0f);
-  const int W = int(cols);
-  for (std::uint32_t c = 0; c < channels; ++c)
-    for (int ky = 0; ky < 3; ++ky)
-      for (int kx = 0; kx < 3; ++kx) {
-        const float* src = dcols.row(Eigen::Index(c * 9 + ky * 3 + kx)).data();
-        const int x0 = std::max(0, 1 - kx), x1 = std::min(W, W + 1 - kx);
-        for (std::uint32_t y = 0; y < rows; ++y) {
-          const int sy = int(y) + ky - 1;
-          if (sy < 0 || sy >= int(rows)) continue;
-          float* d = dx + (std::size_t(c) * rows + std::size_t(sy)) * cols + (kx - 1);
-          const float* s = src + std::size_t(y) * cols;
-          for (int xx = x0; xx < x1; ++xx) d[xx] += s[xx];
-        }
+float reduce_lanes(float* acc) {  // pairwise over kLanes partial sums
+  for (std::size_t w = kLanes / 2; w > 0; w /= 2)
+    for (std::size_t l = 0; l < w; ++l) acc[l] += acc[l + w];
+  return acc[0];
+}
+
+float sum(const float* __restrict a, std::size_t n) {
+  float acc[kLanes] = {};
+  std::size_t i = 0;
+  for (; i + kLanes <= n; i += kLanes)
+    for (std::size_t l = 0; l < kLanes; ++l) acc[l] += a[i + l];
+  for (std::size_t l = 0; i + l < n; ++l) acc[l] += a[i + l];
+  return reduce_lanes(acc);
+}
+
+// out[q] = start + Σ_t w[t] · src[t][q] over `taps` shifted planes, q in [0, n), t in order: one
+// fused multiply-add chain per output, the same in a strip and in the tail. (Sharing each
+// source strip between several outputs spilled the accumulators and ran slower.)
+void weighted_taps(const float* const* src, const float* w, std::size_t taps, float start, std::size_t n,
+                   float* __restrict out) {
+  std::size_t q = 0;
+  for (; q + kStrip <= n; q += kStrip) {
+    float acc[kStrip];
+    std::fill_n(acc, kStrip, start);
+    for (std::size_t t = 0; t < taps; ++t) {
+      const float wt = w[t];
+      const float* __restrict s = src[t] + q;
+      for (std::size_t l = 0; l < kStrip; ++l) acc[l] = madd(wt, s[l], acc[l]);
+    }
+    std::copy_n(acc, kStrip, out + q);
+  }
+  for (; q < n; ++q) {
+    float acc = start;
+    for (std::size_t t = 0; t < taps; ++t) acc = madd(w[t], src[t][q], acc);
+    out[q] = acc;
+  }
+}
+
+// z[co] = bias[co] + Σ_{ci, tap} w[co][ci * 9 + tap] · (input plane ci shifted by the tap).
+void conv_forward(const float* weights, const float* bias, const float* input, const Network::Conv& c, float* z) {
+  const Planes p = planes_of(c);
+  std::vector<const float*> src(std::size_t(c.in) * 9);
+  for (std::uint32_t ci = 0; ci < c.in; ++ci)
+    for (std::size_t tap = 0; tap < 9; ++tap) src[ci * 9 + tap] = input + ci * p.size + tap_offset(p, tap);
+  for (std::uint32_t co = 0; co < c.out; ++co)
+    weighted_taps(src.data(), weights + std::size_t(co) * c.in * 9, src.size(), bias[co], p.strips, z + co * p.strips);
+}
+
+// Max-pool 3 stride 3 of one channel's convolution output (padded rows), keeping each window's
+// winner: first down the window's rows per column (vectorised; a column's first row wins ties),
+// then across its columns (the first column wins). Windows at the border are partial.
+void max_pool(const float* z, const Network::Conv& c, const Planes& p, float* out, std::uint32_t* argmax) {
+  std::vector<float> best(c.cols);
+  std::vector<std::uint32_t> row(c.cols);
+  for (std::uint32_t py = 0; py < c.pooled_rows; ++py) {
+    const std::uint32_t y0 = py * 3, y1 = std::min(y0 + 3, c.rows);
+    std::copy_n(z + y0 * p.width, c.cols, best.data());
+    std::fill(row.begin(), row.end(), y0);
+    for (std::uint32_t y = y0 + 1; y < y1; ++y) {
+      const float* zr = z + y * p.width;
+      for (std::uint32_t x = 0; x < c.cols; ++x) {
+        const bool more = zr[x] > best[x];
+        best[x] = more ? zr[x] : best[x];
+        row[x] = more ? y : row[x];
       }
+    }
+    for (std::uint32_t px = 0; px < c.pooled_cols; ++px) {
+      const std::uint32_t x0 = px * 3, x1 = std::min(x0 + 3, c.cols);
+      std::uint32_t wx = x0;
+      float top = best[x0];
+      for (std::uint32_t x = x0 + 1; x < x1; ++x) {  // selects, not branches: the data is noise to a predictor
+        const bool more = best[x] > top;
+        top = more ? best[x] : top;
+        wx = more ? x : wx;
+      }
+      out[py * c.pooled_cols + px] = top;
+      argmax[py * c.pooled_cols + px] = std::uint32_t(row[wx] * p.width + wx);
+    }
+  }
+}
+
+// dw[tap] = Σ_q dz[q] · (plane shifted by the tap)[q] for the 9 taps at once, q in [0, n): each
+// lane sums its q in order, then the lanes pairwise.
+void tap_dots(const float* __restrict dz, const float* plane, const Planes& p, std::size_t n, float* dw) {
+  float acc[9][kLanes] = {};
+  const float* s[9];
+  for (std::size_t tap = 0; tap < 9; ++tap) s[tap] = plane + tap_offset(p, tap);
+  std::size_t q = 0;
+  for (; q + kLanes <= n; q += kLanes)
+    for (std::size_t tap = 0; tap < 9; ++tap)
+      for (std::size_t l = 0; l < kLanes; ++l) acc[tap][l] = madd(dz[q + l], s[tap][q + l], acc[tap][l]);
+  for (std::size_t tap = 0; tap < 9; ++tap) {
+    for (std::size_t l = 0; q + l < n; ++l) acc[tap][l] = madd(dz[q + l], s[tap][q + l], acc[tap][l]);
+    dw[tap] = reduce_lanes(acc[tap]);
+  }
 }
 
 }  // namespace
@@ -85,8 +170,8 @@ void col2im(const RowMatrix& dcols, std::uint32_t channels, std::uint32_t rows, 
 struct EncoderCache {
   std::size_t batch = 0;
   struct Stage {
-    std::vector<RowMatrix> cols;                      // im2col of the stage input, per item
-    std::vector<std::vector<std::uint32_t>> argmax;   // per item: pooled index -> conv pixel
+    std::vector<Floats> input;                        // per item: the padded input planes (Planes)
+    std::vector<std::vector<std::uint32_t>> argmax;   // per item: pooled index -> conv output index (padded rows)
     std::vector<RowMatrix> xhat;                      // per item: normalised pooled (C x P)
     Floats inv_std;                       // per channel
   };
@@ -94,8 +179,7 @@ struct EncoderCache {
   std::vector<Eigen::VectorXf> flat;  // per item: the fully connected layer's input
   // Per item, reused from step to step: allocating these each time (hundreds of KiB) cost more
   // in page faults and zeroing than the arithmetic on them.
-  std::vector<Floats> input;  // a stage's input, CHW
-  mutable std::vector<RowMatrix> conv_out, dz, dcols, dx;
+  mutable std::vector<Floats> conv_out, dz, dx;
 };
 
 void EncoderCacheDeleter::operator()(EncoderCache* cache) const { delete cache; }
@@ -208,56 +292,40 @@ void run_encoder(Network& network, std::span<const float* const> inputs, bool tr
   const auto& shape = network.shape;
   const float* p = network.parameters.data();
   cache.batch = batch;
-  // Stage input per item, CHW.
-  auto& x = cache.input;
-  if (x.size() < batch) x.resize(batch);
   if (cache.conv_out.size() < batch) cache.conv_out.resize(batch);
-  const std::size_t pixels = std::size_t(shape.lights) * shape.views;
+  for (auto& st : cache.stages)
+    if (st.input.size() < batch) st.input.resize(batch), st.argmax.resize(batch), st.xhat.resize(batch);
+  // Stage 1's input: the ABRDF's channels as zero-padded planes.
   each(parallel, batch, [&](std::size_t b) {
-    x[b].resize(3 * pixels);
-    for (std::size_t i = 0; i < pixels; ++i)
-      for (std::size_t c = 0; c < 3; ++c) x[b][c * pixels + i] = inputs[b][i * 3 + c];
+    const Planes pl = planes_of(network.conv[0]);
+    Floats& in = cache.stages[0].input[b];
+    in.assign(3 * pl.size, 0.0f);
+    const float* from = inputs[b];
+    for (std::size_t l = 0; l < shape.lights; ++l) {
+      float* to = in.data() + (l + 1) * pl.width + 1;
+      for (std::size_t v = 0; v < shape.views; ++v, from += 3)
+        for (std::size_t c = 0; c < 3; ++c) to[c * pl.size + v] = from[c];
+    }
   });
   std::size_t bn_offset = 0;
+  cache.flat.resize(batch);
   for (std::size_t s = 0; s < 3; ++s) {
     const auto& conv = network.conv[s];
     auto& st = cache.stages[s];
-    st.cols.resize(batch);
-    st.argmax.resize(batch);
-    st.xhat.resize(batch);
+    const Planes pl = planes_of(conv);
     const std::size_t out_pixels = std::size_t(conv.pooled_rows) * conv.pooled_cols;
-    const ConstRowMap weights(p + conv.weights, conv.out, Eigen::Index(conv.in) * 9);
-    const ConstVectorMap bias(p + conv.bias, conv.out);
     std::vector<RowMatrix> pooled_out(batch);
     // Per item and channel: the sum, then the squared deviations about the batch mean.
     std::vector<double> sums(batch * conv.out, 0.0), squares(batch * conv.out, 0.0);
     each(parallel, batch, [&](std::size_t b) {
-      im2col(x[b].data(), conv.in, conv.rows, conv.cols, st.cols[b]);
-      RowMatrix& z = cache.conv_out[b];
-      z.resize(conv.out, Eigen::Index(std::size_t(conv.rows) * conv.cols));
-      z.noalias() = weights * st.cols[b];
-      z.colwise() += bias;
+      Floats& z = cache.conv_out[b];
+      z.resize(std::size_t(conv.out) * pl.strips);
+      conv_forward(p + conv.weights, p + conv.bias, st.input[b].data(), conv, z.data());
       RowMatrix& out = pooled_out[b];
       out.resize(conv.out, Eigen::Index(out_pixels));
       st.argmax[b].resize(std::size_t(conv.out) * out_pixels);
-      for (std::uint32_t c = 0; c < conv.out; ++c) {
-        const float* zc = z.row(c).data();
-        float* oc = out.row(c).data();
-        std::uint32_t* ac = st.argmax[b].data() + std::size_t(c) * out_pixels;
-        for (std::uint32_t py = 0; py < conv.pooled_rows; ++py)
-          for (std::uint32_t px = 0; px < conv.pooled_cols; ++px) {
-            // The first pixel of the window wins ties (and a window of NaNs).
-            std::uint32_t at = py * 3 * conv.cols + px * 3;
-            float best = zc[at];
-            for (std::uint32_t y = py * 3; y < std::min(py * 3 + 3, conv.rows); ++y)
-              for (std::uint32_t xx = px * 3; xx < std::min(px * 3 + 3, conv.cols); ++xx) {
-                const float v = zc[y * conv.cols + xx];
-                if (v > best) best = v, at = y * conv.cols + xx;
-              }
-            oc[py * conv.pooled_cols + px] = best;
-            ac[py * conv.pooled_cols + px] = at;
-          }
-      }
+      for (std::uint32_t c = 0; c < conv.out; ++c)
+        max_pool(z.data() + c * pl.strips, conv, pl, out.row(c).data(), st.argmax[b].data() + std::size_t(c) * out_pixels);
       for (std::uint32_t c = 0; c < conv.out; ++c) sums[b * conv.out + c] = double(out.row(c).sum());
     });
     if (s == stop) {
@@ -271,9 +339,9 @@ void run_encoder(Network& network, std::span<const float* const> inputs, bool tr
     for (std::uint32_t c = 0; c < conv.out; ++c) {
       mean[c] = network.running_mean[bn_offset + c], var[c] = network.running_var[bn_offset + c];
       if (training) {
-        double sum = 0.0;
-        for (std::size_t b = 0; b < batch; ++b) sum += sums[b * conv.out + c];
-        mean[c] = float(sum / count);
+        double total = 0.0;
+        for (std::size_t b = 0; b < batch; ++b) total += sums[b * conv.out + c];
+        mean[c] = float(total / count);
       }
     }
     if (training) {
@@ -299,17 +367,24 @@ void run_encoder(Network& network, std::span<const float* const> inputs, bool tr
         st.xhat[b].row(c) = (pooled_out[b].row(c).array() - mean[c]) * st.inv_std[c];
         pooled_out[b].row(c) = st.xhat[b].row(c).array() * gamma + beta;
       }
-      x[b].assign(pooled_out[b].data(), pooled_out[b].data() + pooled_out[b].size());  // row-major = CHW
+      if (s + 1 < 3) {  // the next stage's padded planes
+        const Planes next = planes_of(network.conv[s + 1]);
+        Floats& in = cache.stages[s + 1].input[b];
+        in.assign(std::size_t(conv.out) * next.size, 0.0f);
+        for (std::uint32_t c = 0; c < conv.out; ++c)
+          for (std::uint32_t y = 0; y < conv.pooled_rows; ++y)
+            std::copy_n(pooled_out[b].row(c).data() + std::size_t(y) * conv.pooled_cols, conv.pooled_cols,
+                        in.data() + c * next.size + (y + 1) * next.width + 1);
+      } else {
+        cache.flat[b] = Eigen::Map<const Eigen::VectorXf>(pooled_out[b].data(), pooled_out[b].size());  // row-major = CHW
+      }
     });
     bn_offset += conv.out;
   }
   const ConstRowMap fc(p + network.fc_weights, shape.latent, Eigen::Index(network.fc_inputs));
   const ConstVectorMap fc_bias(p + network.fc_bias, shape.latent);
-  cache.flat.resize(batch);
-  for (std::size_t b = 0; b < batch; ++b) {
-    cache.flat[b] = ConstVectorMap(x[b].data(), Eigen::Index(network.fc_inputs));
+  for (std::size_t b = 0; b < batch; ++b)
     VectorMap(latents.data() + b * shape.latent, shape.latent) = fc * cache.flat[b] + fc_bias;
-  }
 }
 
 void encode_stages(Network& network, std::span<const float* const> inputs, std::size_t stage, EncoderCache& cache,
@@ -382,12 +457,13 @@ void encoder_backward(const Network& network, const EncoderCache& cache, std::sp
     dy[b] = Eigen::Map<RowMatrix>(df.data(), last.out, Eigen::Index(last.pooled_rows) * last.pooled_cols);
   }
   // Per item: its share of each stage's weight and bias gradients, summed over items in order.
-  if (cache.dz.size() < batch) cache.dz.resize(batch), cache.dcols.resize(batch), cache.dx.resize(batch);
+  if (cache.dz.size() < batch) cache.dz.resize(batch), cache.dx.resize(batch);
   std::vector<RowMatrix> item_dweights(batch);
   std::vector<Eigen::VectorXf> item_dbias(batch);
   for (int s = 2; s >= 0; --s) {
     const auto& conv = network.conv[std::size_t(s)];
     const auto& st = cache.stages[std::size_t(s)];
+    const Planes pl = planes_of(conv);
     const std::size_t out_pixels = std::size_t(conv.pooled_rows) * conv.pooled_cols;
     const double count = double(batch * out_pixels);
     // Batch norm backward: dx = γ/σ (dy − mean(dy) − x̂ mean(dy x̂)), means over (batch, pixels).
@@ -410,29 +486,54 @@ void encoder_backward(const Network& network, const EncoderCache& cache, std::sp
       k[c] = p[conv.gamma + c] * st.inv_std[c];
       mean_dy[c] = float(sum_dy / count), mean_dy_xhat[c] = float(sum_dy_xhat / count);
     }
-    const ConstRowMap weights(p + conv.weights, conv.out, Eigen::Index(conv.in) * 9);
+    // dz per output channel, with zeros around it for the input gradient's shifted reads.
+    const std::size_t dz_guard = 2 * pl.width + 2, dz_stride = pl.strips + 3 * pl.width + 2;
+    // The weights by input channel: [ci][co * 9 + tap], the order the input gradient sums in.
+    Floats weights_by_input(std::size_t(conv.in) * conv.out * 9);
+    for (std::uint32_t co = 0; co < conv.out; ++co)
+      for (std::uint32_t ci = 0; ci < conv.in; ++ci)
+        for (std::size_t tap = 0; tap < 9; ++tap)
+          weights_by_input[(std::size_t(ci) * conv.out + co) * 9 + tap] = p[conv.weights + (std::size_t(co) * conv.in + ci) * 9 + tap];
     RowMap dweights(g + conv.weights, conv.out, Eigen::Index(conv.in) * 9);
     VectorMap dbias(g + conv.bias, conv.out);
-    const std::size_t in_pixels = std::size_t(conv.rows) * conv.cols;
     each(parallel, batch, [&](std::size_t b) {
       for (std::uint32_t c = 0; c < conv.out; ++c)
         dy[b].row(c) = k[c] * (dy[b].row(c).array() - mean_dy[c] - st.xhat[b].row(c).array() * mean_dy_xhat[c]);
-      // Max-pool backward: each pooled gradient goes to the pixel that won.
-      RowMatrix& dz = cache.dz[b];
-      dz.setZero(conv.out, Eigen::Index(in_pixels));
+      // Max-pool backward: each pooled gradient goes to the output pixel that won (padded rows;
+      // the spare columns stay 0).
+      Floats& dz = cache.dz[b];
+      dz.assign(std::size_t(conv.out) * dz_stride, 0.0f);
       for (std::uint32_t c = 0; c < conv.out; ++c)
         for (std::size_t q = 0; q < out_pixels; ++q)
-          dz(c, Eigen::Index(st.argmax[b][c * out_pixels + q])) += dy[b](c, Eigen::Index(q));
-      item_dweights[b].noalias() = dz * st.cols[b].transpose();
-      item_dbias[b] = dz.rowwise().sum();
+          dz[c * dz_stride + dz_guard + st.argmax[b][c * out_pixels + q]] += dy[b](c, Eigen::Index(q));
+      // Weights: dW[co][ci, tap] = Σ dz[co] · (input ci shifted by the tap); bias: Σ dz[co].
+      RowMatrix& dw = item_dweights[b];
+      dw.resize(conv.out, Eigen::Index(conv.in) * 9);
+      item_dbias[b].resize(conv.out);
+      const float* input = st.input[b].data();
+      for (std::uint32_t co = 0; co < conv.out; ++co)
+        item_dbias[b][co] = sum(dz.data() + co * dz_stride + dz_guard, pl.strips);  // zeros past span
+      for (std::uint32_t co = 0; co < conv.out; ++co)
+        for (std::uint32_t ci = 0; ci < conv.in; ++ci)
+          tap_dots(dz.data() + co * dz_stride + dz_guard, input + ci * pl.size, pl, pl.strips, &dw(co, Eigen::Index(ci * 9)));
       if (s > 0) {
-        RowMatrix& dcols = cache.dcols[b];
-        dcols.resize(Eigen::Index(conv.in) * 9, Eigen::Index(in_pixels));
-        dcols.noalias() = weights.transpose() * dz;
-        RowMatrix& dx = cache.dx[b];
-        dx.resize(conv.in, Eigen::Index(in_pixels));
-        col2im(dcols, conv.in, conv.rows, conv.cols, dx.data());
-        dy[b] = dx;
+        // The input's gradient at padded rows 1..rows: dx[ci][q] = Σ_{co, tap} w · dz[co][q − tap],
+        // gathered (dz has zeros around it); the border columns are the padding's, dropped, and
+        // the rest is the previous stage's output gradient.
+        Floats& dx = cache.dx[b];
+        dx.resize(std::size_t(conv.in) * pl.strips);
+        std::vector<const float*> src(std::size_t(conv.out) * 9);
+        for (std::uint32_t co = 0; co < conv.out; ++co)
+          for (std::size_t tap = 0; tap < 9; ++tap)
+            src[co * 9 + tap] = dz.data() + co * dz_stride + dz_guard + pl.width - tap_offset(pl, tap);
+        for (std::uint32_t ci = 0; ci < conv.in; ++ci)
+          weighted_taps(src.data(), weights_by_input.data() + std::size_t(ci) * conv.out * 9, src.size(), 0.0f, pl.strips,
+                        dx.data() + ci * pl.strips);
+        dy[b].resize(conv.in, Eigen::Index(std::size_t(conv.rows) * conv.cols));
+        for (std::uint32_t ci = 0; ci < conv.in; ++ci)
+          for (std::uint32_t y = 0; y < conv.rows; ++y)
+            std::copy_n(dx.data() + ci * pl.strips + std::size_t(y) * pl.width + 1, conv.cols,
+                        dy[b].row(ci).data() + std::size_t(y) * conv.cols);
       }
     });
     for (std::size_t b = 0; b < batch; ++b) {
@@ -459,7 +560,9 @@ double decoder_loss_gradient(const Network& network, std::span<const float> inpu
                              std::span<const float> sample_scales, std::size_t count, float weight,
                              std::span<float> gradient, std::span<float> input_gradient) {
   const float* p = network.parameters.data();
-  float* g = gradient.data();
+  // A decoder-only gradient holds the parameters from decoder_begin on: shift the offsets.
+  const std::size_t shift = gradient.size() == network.parameters.size() ? 0 : network.decoder_begin;
+  auto g = [&](std::size_t offset) { return gradient.data() + (offset - shift); };
   const std::size_t layers = network.dense.size();
   std::vector<ColMatrix> act(layers + 1);  // act[0] = inputs, act[l+1] = layer l's output (post-ReLU)
   act[0] = ConstColMap(inputs.data(), network.dense.front().in, Eigen::Index(count));
@@ -479,8 +582,8 @@ double decoder_loss_gradient(const Network& network, std::span<const float> inpu
   if (!sample_scales.empty()) dz = dz * ConstVectorMap(sample_scales.data(), Eigen::Index(count)).asDiagonal();
   for (std::size_t l = layers; l-- > 0;) {
     const auto& d = network.dense[l];
-    RowMap(g + d.weights, d.out, d.in).noalias() += dz * act[l].transpose();
-    VectorMap(g + d.bias, d.out) += dz.rowwise().sum();
+    RowMap(g(d.weights), d.out, d.in).noalias() += dz * act[l].transpose();
+    VectorMap(g(d.bias), d.out) += dz.rowwise().sum();
     if (l == 0 && input_gradient.empty()) break;
     ColMatrix da = ConstRowMap(p + d.weights, d.out, d.in).transpose() * dz;
     if (l == 0) {

@@ -36,7 +36,7 @@ namespace {
 using training_detail::TrainState;
 
 constexpr std::size_t kChunk = 512;  // samples per decoder work item, unbatched (one texel's)
-constexpr std::size_t kBlock = 256;  // samples per decoder work item, batched (across texels)
+constexpr std::size_t kBlock = 1024;  // samples per decoder work item, batched (across texels); 256 and 2048 were slower
 
 // Threads kept for the whole training: a step runs several parallel phases (encoder stages,
 // decoder blocks, backward), and starting threads for each cost more than some phases.
@@ -147,7 +147,7 @@ std::string describe_seconds(double s) {
 }
 
 namespace {
-// A training step allocates and frees buffers of a few hundred KiB (im2col columns, per-stage
+// A training step allocates and frees buffers of a few hundred KiB (convolution planes, per-stage
 // activations, per-chunk gradients). glibc serves such sizes with mmap, or trims them off the
 // heap's top when freed, so every step page-faulted and zeroed them afresh: about half of the
 // step's time (perf, weft-bench-btf-train --throughput). Fixed thresholds keep them mapped for
@@ -511,7 +511,7 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
         if (!scales.empty()) scales[j] = d.scales[t];
       }
       auto& g = chunk_gradients[ci];
-      g.assign(net.parameters.size(), 0.0f);
+      g.assign(net.decoder_parameters(), 0.0f);  // the decoder's part: blocks do not touch the encoder
       chunk_loss[ci] = decoder_loss_gradient(net, x, target, scales, n, weight, g, dx);
       // Latent gradients of the items this block covers (from first_item on).
       auto& dl = chunk_latent_gradients[ci];
@@ -525,7 +525,8 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     Floats latent_gradient(batch * L, 0.0f);
     for (std::size_t ci = 0; ci < chunks.size(); ++ci) {
       const auto& g = chunk_gradients[ci];
-      for (std::size_t i = net.decoder_begin; i < g.size(); ++i) gradient[i] += g[i];
+      float* decoder_gradient = gradient.data() + net.decoder_begin;
+      for (std::size_t i = 0; i < g.size(); ++i) decoder_gradient[i] += g[i];
       const std::size_t first_item = chunks[ci].begin / per_texel;
       const auto& dl = chunk_latent_gradients[ci];
       for (std::size_t k = 0; k < dl.size(); ++k) latent_gradient[first_item * L + k] += dl[k];

@@ -115,7 +115,8 @@ void encoder_backward(const Network& network, const EncoderCache& cache, std::sp
 // column-major) in `outputs`.
 void decoder_forward(const Network& network, std::span<const float> inputs, std::size_t count, std::span<float> outputs);
 // Forward + backward for the loss Σ w (s_j · y_j − t_j)² (s_j a per-sample scale, w the
-// common weight, e.g. 1 / (3 × samples)); adds d/d(decoder parameters) to `gradient` and
+// common weight, e.g. 1 / (3 × samples)); adds d/d(decoder parameters) to `gradient` (all the
+// parameters, or decoder_parameters() floats: the decoder's part alone) and
 // writes d/d(inputs) to `input_gradient` (same layout as inputs) when it is not empty.
 // Returns the unweighted sum of squares.
 double decoder_loss_gradient(const Network& network, std::span<const float> inputs, std::span<const float> targets,
