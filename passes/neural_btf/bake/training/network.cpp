@@ -179,7 +179,10 @@ struct EncoderCache {
   std::vector<Eigen::VectorXf> flat;  // per item: the fully connected layer's input
   // Per item, reused from step to step: allocating these each time (hundreds of KiB) cost more
   // in page faults and zeroing than the arithmetic on them.
-  mutable std::vector<Floats> conv_out, dz, dx;
+  // Buffers whose zeros matter (the planes' borders, dz between the winners) are zeroed once
+  // when allocated and kept so: only their interiors, or the winners, are written and reset.
+  mutable std::vector<Floats> conv_out, dx;
+  mutable std::array<std::vector<Floats>, 3> dz;  // per stage, per item
 };
 
 void EncoderCacheDeleter::operator()(EncoderCache* cache) const { delete cache; }
@@ -299,7 +302,7 @@ void run_encoder(Network& network, std::span<const float* const> inputs, bool tr
   each(parallel, batch, [&](std::size_t b) {
     const Planes pl = planes_of(network.conv[0]);
     Floats& in = cache.stages[0].input[b];
-    in.assign(3 * pl.size, 0.0f);
+    if (in.size() != 3 * pl.size) in.assign(3 * pl.size, 0.0f);  // the interior is overwritten below
     const float* from = inputs[b];
     for (std::size_t l = 0; l < shape.lights; ++l) {
       float* to = in.data() + (l + 1) * pl.width + 1;
@@ -370,7 +373,7 @@ void run_encoder(Network& network, std::span<const float* const> inputs, bool tr
       if (s + 1 < 3) {  // the next stage's padded planes
         const Planes next = planes_of(network.conv[s + 1]);
         Floats& in = cache.stages[s + 1].input[b];
-        in.assign(std::size_t(conv.out) * next.size, 0.0f);
+        if (in.size() != std::size_t(conv.out) * next.size) in.assign(std::size_t(conv.out) * next.size, 0.0f);
         for (std::uint32_t c = 0; c < conv.out; ++c)
           for (std::uint32_t y = 0; y < conv.pooled_rows; ++y)
             std::copy_n(pooled_out[b].row(c).data() + std::size_t(y) * conv.pooled_cols, conv.pooled_cols,
@@ -457,7 +460,9 @@ void encoder_backward(const Network& network, const EncoderCache& cache, std::sp
     dy[b] = Eigen::Map<RowMatrix>(df.data(), last.out, Eigen::Index(last.pooled_rows) * last.pooled_cols);
   }
   // Per item: its share of each stage's weight and bias gradients, summed over items in order.
-  if (cache.dz.size() < batch) cache.dz.resize(batch), cache.dx.resize(batch);
+  if (cache.dx.size() < batch) cache.dx.resize(batch);
+  for (auto& per_item : cache.dz)
+    if (per_item.size() < batch) per_item.resize(batch);
   std::vector<RowMatrix> item_dweights(batch);
   std::vector<Eigen::VectorXf> item_dbias(batch);
   for (int s = 2; s >= 0; --s) {
@@ -501,8 +506,8 @@ void encoder_backward(const Network& network, const EncoderCache& cache, std::sp
         dy[b].row(c) = k[c] * (dy[b].row(c).array() - mean_dy[c] - st.xhat[b].row(c).array() * mean_dy_xhat[c]);
       // Max-pool backward: each pooled gradient goes to the output pixel that won (padded rows;
       // the spare columns stay 0).
-      Floats& dz = cache.dz[b];
-      dz.assign(std::size_t(conv.out) * dz_stride, 0.0f);
+      Floats& dz = cache.dz[std::size_t(s)][b];  // all zeros here (reset at the end)
+      if (dz.size() != std::size_t(conv.out) * dz_stride) dz.assign(std::size_t(conv.out) * dz_stride, 0.0f);
       for (std::uint32_t c = 0; c < conv.out; ++c)
         for (std::size_t q = 0; q < out_pixels; ++q)
           dz[c * dz_stride + dz_guard + st.argmax[b][c * out_pixels + q]] += dy[b](c, Eigen::Index(q));
@@ -535,6 +540,8 @@ void encoder_backward(const Network& network, const EncoderCache& cache, std::sp
             std::copy_n(dx.data() + ci * pl.strips + std::size_t(y) * pl.width + 1, conv.cols,
                         dy[b].row(ci).data() + std::size_t(y) * conv.cols);
       }
+      for (std::uint32_t c = 0; c < conv.out; ++c)  // back to all zeros for the next step
+        for (std::size_t q = 0; q < out_pixels; ++q) dz[c * dz_stride + dz_guard + st.argmax[b][c * out_pixels + q]] = 0.0f;
     });
     for (std::size_t b = 0; b < batch; ++b) {
       dweights += item_dweights[b];
@@ -564,30 +571,31 @@ double decoder_loss_gradient(const Network& network, std::span<const float> inpu
   const std::size_t shift = gradient.size() == network.parameters.size() ? 0 : network.decoder_begin;
   auto g = [&](std::size_t offset) { return gradient.data() + (offset - shift); };
   const std::size_t layers = network.dense.size();
+  // Samples down the rows (count x width, column-major): the products' long dimension is then
+  // the one Eigen's kernel blocks by 48 rows, and the hidden width (106) only the short one.
   std::vector<ColMatrix> act(layers + 1);  // act[0] = inputs, act[l+1] = layer l's output (post-ReLU)
-  act[0] = ConstColMap(inputs.data(), network.dense.front().in, Eigen::Index(count));
+  act[0] = ConstColMap(inputs.data(), network.dense.front().in, Eigen::Index(count)).transpose();
   for (std::size_t l = 0; l < layers; ++l) {
     const auto& d = network.dense[l];
-    act[l + 1].noalias() = ConstRowMap(p + d.weights, d.out, d.in) * act[l];
-    act[l + 1].colwise() += ConstVectorMap(p + d.bias, d.out);
+    act[l + 1].noalias() = act[l] * ConstRowMap(p + d.weights, d.out, d.in).transpose();
+    act[l + 1].rowwise() += ConstVectorMap(p + d.bias, d.out).transpose();
     if (l + 1 < layers) act[l + 1] = act[l + 1].cwiseMax(0.0f);
   }
-  const ConstColMap t(targets.data(), 3, Eigen::Index(count));
   ColMatrix residual = act[layers];
-  if (!sample_scales.empty()) residual = residual * ConstVectorMap(sample_scales.data(), Eigen::Index(count)).asDiagonal();
-  residual -= t;
+  if (!sample_scales.empty()) residual = ConstVectorMap(sample_scales.data(), Eigen::Index(count)).asDiagonal() * residual;
+  residual -= ConstColMap(targets.data(), 3, Eigen::Index(count)).transpose();
   const double loss = double(residual.squaredNorm());
   // d/dy of w (s y − t)²: 2 w s (s y − t).
   ColMatrix dz = (2.0f * weight) * residual;
-  if (!sample_scales.empty()) dz = dz * ConstVectorMap(sample_scales.data(), Eigen::Index(count)).asDiagonal();
+  if (!sample_scales.empty()) dz = ConstVectorMap(sample_scales.data(), Eigen::Index(count)).asDiagonal() * dz;
   for (std::size_t l = layers; l-- > 0;) {
     const auto& d = network.dense[l];
-    RowMap(g(d.weights), d.out, d.in).noalias() += dz * act[l].transpose();
-    VectorMap(g(d.bias), d.out) += dz.rowwise().sum();
+    RowMap(g(d.weights), d.out, d.in).noalias() += dz.transpose() * act[l];
+    VectorMap(g(d.bias), d.out) += dz.colwise().sum().transpose();
     if (l == 0 && input_gradient.empty()) break;
-    ColMatrix da = ConstRowMap(p + d.weights, d.out, d.in).transpose() * dz;
+    ColMatrix da = dz * ConstRowMap(p + d.weights, d.out, d.in);
     if (l == 0) {
-      ColMap(input_gradient.data(), d.in, Eigen::Index(count)) = da;
+      ColMap(input_gradient.data(), d.in, Eigen::Index(count)) = da.transpose();
       break;
     }
     dz = (act[l].array() > 0.0f).select(da, 0.0f);
