@@ -36,7 +36,10 @@ namespace {
 using training_detail::TrainState;
 
 constexpr std::size_t kChunk = 512;  // samples per decoder work item, unbatched (one texel's)
-constexpr std::size_t kBlock = 1024;  // samples per decoder work item, batched (across texels); 256 and 2048 were slower
+// Samples per decoder work item, batched (across texels), at most; a step's samples are cut into
+// equal blocks (1,280 into two of 640, not 1,024 + 256, which left one thread idle). The cut
+// depends on the step's size only, never on the thread count. 256 and 2048 were slower.
+constexpr std::size_t kBlock = 1024;
 
 // Threads kept for the whole training: a step runs several parallel phases (encoder stages,
 // decoder blocks, backward), and starting threads for each cost more than some phases.
@@ -484,7 +487,8 @@ Result<TrainResult> train_neural_btf(const Btf& btf, const TrainOptions& o) {
     std::vector<Chunk> chunks;
     const std::size_t total = batch * per_texel;
     if (o.batched) {
-      for (std::size_t s0 = 0; s0 < total; s0 += kBlock) chunks.push_back({s0, std::min(total, s0 + kBlock)});
+      const std::size_t blocks = (total + kBlock - 1) / kBlock, size = (total + blocks - 1) / blocks;
+      for (std::size_t s0 = 0; s0 < total; s0 += size) chunks.push_back({s0, std::min(total, s0 + size)});
     } else {
       for (std::size_t b = 0; b < batch; ++b)
         for (std::size_t s0 = 0; s0 < per_texel; s0 += kChunk)
