@@ -232,6 +232,19 @@ TEST_CASE("issue 21: weft-bench-btf-train --help answers without training") {
   CHECK_FALSE(contains(r.output, "loss"));
 }
 
+TEST_CASE("issue 20: weft-bench-btf-interpolation answers --help, and a missing model is named") {
+  const auto help = run_command(std::string("timeout 20 ") + WEFT_BENCH_BTF_INTERPOLATION + " --help");
+  CHECK(help.exit_code == 0);
+  CHECK(contains(help.output, "usage: weft-bench-btf-interpolation"));
+  CHECK_FALSE(contains(help.output, "synthetic BTF"));
+  const auto missing = run_command(std::string("timeout 20 ") + WEFT_BENCH_BTF_INTERPOLATION + " /nonexistent/model.wbtf 2>&1");
+  CHECK(missing.exit_code != 0);
+  CHECK(contains(missing.output, "/nonexistent/model.wbtf"));
+  const auto nothing = run_command(std::string("timeout 20 ") + WEFT_BENCH_BTF_INTERPOLATION + " 2>&1");
+  CHECK(nothing.exit_code == 2);
+  CHECK(contains(nothing.output, "usage"));
+}
+
 TEST_CASE("issue 21: the brightest light a scene may have shades finite pixels (1e38 drew black faces)") {
   const auto dir = temp_dir();
   std::ofstream(dir / "bright.json") << R"({"version": 1, "output": {"width": 32, "height": 24},
