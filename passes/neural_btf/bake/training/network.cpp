@@ -53,9 +53,10 @@ Planes planes_of(const Network::Conv& c) {
 std::size_t tap_offset(const Planes& p, std::size_t tap) { return (tap / 3) * p.width + tap % 3; }
 
 // The convolution's kernels below keep their partial sums in fixed lanes (kLanes per
-// accumulator) and add them up in a fixed order, so every result follows from the code alone,
-// not from where a buffer lies or from the SIMD width the compiler picks; a strip of lanes
-// stays in registers across all the taps.
+// accumulator) and add them up in a fixed order, so the order follows from the code alone, not
+// from where a buffer lies or how many lanes a vector has; a strip of lanes stays in registers
+// across all the taps. (Builds with FMA fuse each multiply-add, so their last bits differ from
+// a baseline build's, as Eigen's do.)
 constexpr std::size_t kLanes = 16;
 static_assert(kStrip % kLanes == 0);
 
