@@ -243,6 +243,12 @@ TEST_CASE("issue 20: weft-bench-btf-interpolation answers --help, and a missing 
   const auto nothing = run_command(std::string("timeout 20 ") + WEFT_BENCH_BTF_INTERPOLATION + " 2>&1");
   CHECK(nothing.exit_code == 2);
   CHECK(contains(nothing.output, "usage"));
+  for (const char* n : {"0", "257", "100000000000"}) {  // the knob's extremes, refused before any work
+    CAPTURE(n);
+    const auto r = run_command(std::string("timeout 20 ") + WEFT_BENCH_BTF_INTERPOLATION + " /nonexistent/model.wbtf --directions " + n + " 2>&1");
+    CHECK(r.exit_code == 2);
+    CHECK(contains(r.output, "--directions"));
+  }
 }
 
 TEST_CASE("issue 21: the brightest light a scene may have shades finite pixels (1e38 drew black faces)") {

@@ -74,22 +74,22 @@ float reduce_lanes(float* acc) {  // pairwise over kLanes partial sums
   return acc[0];
 }
 
-float sum(const float* __restrict a, std::size_t n) {
+// The kernels below run over `strips` outputs: Planes::strips, a whole number of kStrip (and so
+// of kLanes), which every plane and gradient buffer is padded to. No tails.
+
+float sum(const float* __restrict a, std::size_t strips) {
   float acc[kLanes] = {};
-  std::size_t i = 0;
-  for (; i + kLanes <= n; i += kLanes)
+  for (std::size_t i = 0; i < strips; i += kLanes)
     for (std::size_t l = 0; l < kLanes; ++l) acc[l] += a[i + l];
-  for (std::size_t l = 0; i + l < n; ++l) acc[l] += a[i + l];
   return reduce_lanes(acc);
 }
 
-// out[q] = start + Σ_t w[t] · src[t][q] over `taps` shifted planes, q in [0, n), t in order: one
-// fused multiply-add chain per output, the same in a strip and in the tail. (Sharing each
-// source strip between several outputs spilled the accumulators and ran slower.)
-void weighted_taps(const float* const* src, const float* w, std::size_t taps, float start, std::size_t n,
+// out[q] = start + Σ_t w[t] · src[t][q] over `taps` shifted planes, t in order: one fused
+// multiply-add chain per output. (Sharing each source strip between several outputs spilled
+// the accumulators and ran slower.)
+void weighted_taps(const float* const* src, const float* w, std::size_t taps, float start, std::size_t strips,
                    float* __restrict out) {
-  std::size_t q = 0;
-  for (; q + kStrip <= n; q += kStrip) {
+  for (std::size_t q = 0; q < strips; q += kStrip) {
     float acc[kStrip];
     std::fill_n(acc, kStrip, start);
     for (std::size_t t = 0; t < taps; ++t) {
@@ -98,11 +98,6 @@ void weighted_taps(const float* const* src, const float* w, std::size_t taps, fl
       for (std::size_t l = 0; l < kStrip; ++l) acc[l] = madd(wt, s[l], acc[l]);
     }
     std::copy_n(acc, kStrip, out + q);
-  }
-  for (; q < n; ++q) {
-    float acc = start;
-    for (std::size_t t = 0; t < taps; ++t) acc = madd(w[t], src[t][q], acc);
-    out[q] = acc;
   }
 }
 
@@ -149,20 +144,16 @@ void max_pool(const float* z, const Network::Conv& c, const Planes& p, float* ou
   }
 }
 
-// dw[tap] = Σ_q dz[q] · (plane shifted by the tap)[q] for the 9 taps at once, q in [0, n): each
-// lane sums its q in order, then the lanes pairwise.
-void tap_dots(const float* __restrict dz, const float* plane, const Planes& p, std::size_t n, float* dw) {
+// dw[tap] = Σ_q dz[q] · (plane shifted by the tap)[q] for the 9 taps at once: each lane sums
+// its q in order, then the lanes pairwise.
+void tap_dots(const float* __restrict dz, const float* plane, const Planes& p, float* dw) {
   float acc[9][kLanes] = {};
   const float* s[9];
   for (std::size_t tap = 0; tap < 9; ++tap) s[tap] = plane + tap_offset(p, tap);
-  std::size_t q = 0;
-  for (; q + kLanes <= n; q += kLanes)
+  for (std::size_t q = 0; q < p.strips; q += kLanes)
     for (std::size_t tap = 0; tap < 9; ++tap)
       for (std::size_t l = 0; l < kLanes; ++l) acc[tap][l] = madd(dz[q + l], s[tap][q + l], acc[tap][l]);
-  for (std::size_t tap = 0; tap < 9; ++tap) {
-    for (std::size_t l = 0; q + l < n; ++l) acc[tap][l] = madd(dz[q + l], s[tap][q + l], acc[tap][l]);
-    dw[tap] = reduce_lanes(acc[tap]);
-  }
+  for (std::size_t tap = 0; tap < 9; ++tap) dw[tap] = reduce_lanes(acc[tap]);
 }
 
 }  // namespace
@@ -521,7 +512,7 @@ void encoder_backward(const Network& network, const EncoderCache& cache, std::sp
         item_dbias[b][co] = sum(dz.data() + co * dz_stride + dz_guard, pl.strips);  // zeros past span
       for (std::uint32_t co = 0; co < conv.out; ++co)
         for (std::uint32_t ci = 0; ci < conv.in; ++ci)
-          tap_dots(dz.data() + co * dz_stride + dz_guard, input + ci * pl.size, pl, pl.strips, &dw(co, Eigen::Index(ci * 9)));
+          tap_dots(dz.data() + co * dz_stride + dz_guard, input + ci * pl.size, pl, &dw(co, Eigen::Index(ci * 9)));
       if (s > 0) {
         // The input's gradient at padded rows 1..rows: dx[ci][q] = Σ_{co, tap} w · dz[co][q − tap],
         // gathered (dz has zeros around it); the border columns are the padding's, dropped, and
