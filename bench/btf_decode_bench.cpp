@@ -39,6 +39,7 @@ import weft.feature;
 import weft.gpu;
 import weft.scene;
 import weft.renderer;
+import weft.builtin_features;
 import weft.btf.model;
 import weft.pass.neural_btf;
 import weft.bench.device;
@@ -347,6 +348,11 @@ void storage_table() {
 
 int main(int argc, char** argv) {
   // This program links one feature and registers it, as any application does.
+  // The frame's pass types (the default pipeline's shadow map, scene colour, background, tone map).
+  if (auto ok = weft::register_builtin_pass_types(); !ok) {
+    std::fprintf(stderr, "%s\n", ok.error().what().c_str());
+    return 1;
+  }
   if (auto ok = register_feature(passes::neural_btf_feature()); !ok) {
     std::fprintf(stderr, "%s\n", ok.error().what().c_str());
     return 1;

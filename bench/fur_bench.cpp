@@ -36,6 +36,7 @@
 import weft.core;
 import weft.feature;
 import weft.renderer;
+import weft.builtin_features;
 import weft.gpu;
 import weft.frame;
 import weft.graph;
@@ -503,6 +504,7 @@ int main(int argc, char** argv) {
               g.adapter.info().driver.c_str(), g.adapter.info().driver_info.c_str(),
               std::string(gpu::to_string(g.adapter.info().type)).c_str());
   // This program links the fur feature and registers it, as any application does.
+  must(weft::register_builtin_pass_types(), "registering the frame's pass types");
   must(register_feature(shell_fur_feature()), "registering the fur feature");
   const ShellFurPass pass = must(ShellFurPass::create(g.device), "creating the pass");
   if (do_accuracy) accuracy(g, pass, photo, photo_name);

@@ -34,6 +34,7 @@ import weft.graph;
 import weft.image;
 import weft.scene;
 import weft.renderer;
+import weft.builtin_features;
 import weft.pass.skin_sss;
 import weft.bench.device;
 
@@ -624,6 +625,11 @@ void image_table(Session& session, const Options& o) {
 
 int main(int argc, char** argv) {
   // This program links one feature and registers it, as any application does.
+  // The frame's pass types (the default pipeline's shadow map, scene colour, background, tone map).
+  if (auto ok = weft::register_builtin_pass_types(); !ok) {
+    std::fprintf(stderr, "%s\n", ok.error().what().c_str());
+    return 1;
+  }
   if (auto ok = register_feature(passes::skin_sss_feature()); !ok) {
     std::fprintf(stderr, "%s\n", ok.error().what().c_str());
     return 1;

@@ -31,6 +31,7 @@ import weft.gpu;
 import weft.scene;
 import weft.ssdf;
 import weft.renderer;
+import weft.builtin_features;
 import weft.pass.ssdf_lighting;
 import weft.example.fur_resample;
 
@@ -53,6 +54,11 @@ int lighting_bench(int argc, char** argv);
 
 int main(int argc, char** argv) {
   // This program links one feature and registers it, as any application does.
+  // The frame's pass types (the default pipeline's shadow map, scene colour, background, tone map).
+  if (auto ok = weft::register_builtin_pass_types(); !ok) {
+    std::fprintf(stderr, "%s\n", ok.error().what().c_str());
+    return 1;
+  }
   if (auto ok = register_feature(passes::ssdf_lighting_feature()); !ok) {
     std::fprintf(stderr, "%s\n", ok.error().what().c_str());
     return 1;

@@ -2,9 +2,16 @@
 # One folder = one C++20 module = one library target. INTERFACE: the primary interface unit
 # and its interface partitions (installed); PRIVATE_MODULES: implementation partitions that
 # only the module's own .cpp files import (not installed).
+# Shared libraries by default (WEFT_SHARED_LIBS): a plugin loaded at run time (weft --plugin)
+# links the same libweft_*.so files as the program that loads it, so the process holds one
+# copy of each -- one pass-type and feature registry, one logger, one set of shader overrides.
 function(weft_module target)
   cmake_parse_arguments(ARG "" "" "INTERFACE;PRIVATE_MODULES;SOURCES;LINK;PRIVATE_LINK" ${ARGN})
-  add_library(${target} STATIC)
+  if(WEFT_SHARED_LIBS)
+    add_library(${target} SHARED)
+  else()
+    add_library(${target} STATIC)
+  endif()
   add_library(weft::${target} ALIAS ${target})
   target_sources(${target}
     PUBLIC FILE_SET CXX_MODULES BASE_DIRS ${CMAKE_CURRENT_SOURCE_DIR} FILES ${ARG_INTERFACE})

@@ -29,6 +29,7 @@ import weft.gpu;
 import weft.image;
 import weft.scene;
 import weft.renderer;
+import weft.builtin_features;
 import weft.pass.shell_fur;
 import weft.example.fur_resample;
 
@@ -87,6 +88,11 @@ Result<scene::Mesh> load_normalized(const fs::path& path) {
 
 int run(int argc, char** argv) {
   // This program links one feature and registers it, as any application does.
+  // The frame's pass types (the default pipeline's shadow map, scene colour, background, tone map).
+  if (auto ok = weft::register_builtin_pass_types(); !ok) {
+    std::fprintf(stderr, "%s\n", ok.error().what().c_str());
+    return 1;
+  }
   if (auto ok = register_feature(passes::shell_fur_feature()); !ok) {
     std::fprintf(stderr, "%s\n", ok.error().what().c_str());
     return 1;

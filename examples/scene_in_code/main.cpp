@@ -13,6 +13,7 @@ import weft.gpu;
 import weft.image;
 import weft.scene;
 import weft.renderer;
+import weft.builtin_features;
 
 using namespace weft;
 
@@ -58,6 +59,8 @@ Result<scene::Scene> build_scene(std::uint32_t width, std::uint32_t height) {
 Result<void> run(const std::string& output, std::uint32_t width, std::uint32_t height) {
   auto s = build_scene(width, height);
   if (!s) return std::unexpected(s.error());
+  // The pass types the default pipeline names (shadow map, scene colour, background, tone map).
+  if (auto ok = register_builtin_pass_types(); !ok) return ok;
   auto instance = gpu::Instance::create({.application_name = "weft-scene-in-code"});
   if (!instance) return std::unexpected(instance.error());
   auto adapter = instance->request_adapter();

@@ -33,6 +33,7 @@ import weft.gpu;
 import weft.image;
 import weft.scene;
 import weft.renderer;
+import weft.builtin_features;
 import weft.pass.skin_sss;
 
 using namespace weft;
@@ -374,6 +375,11 @@ Result<void> run(const Options& o) {
 
 int main(int argc, char** argv) {
   // This program links one feature and registers it, as any application does.
+  // The frame's pass types (the default pipeline's shadow map, scene colour, background, tone map).
+  if (auto ok = weft::register_builtin_pass_types(); !ok) {
+    std::fprintf(stderr, "%s\n", ok.error().what().c_str());
+    return 1;
+  }
   if (auto ok = register_feature(passes::skin_sss_feature()); !ok) {
     std::fprintf(stderr, "%s\n", ok.error().what().c_str());
     return 1;

@@ -15,6 +15,19 @@ import weft.gpu;
 
 namespace weft::frame {
 
+mat4 fit_light_view_projection(vec3 towards_light, vec3 lo, vec3 hi) {
+  const vec3 center = 0.5f * (lo + hi);
+  const float radius = std::max(0.5f * glm::length(hi - lo), 1e-4f);
+  const vec3 dir = glm::normalize(towards_light);
+  const vec3 up = std::abs(dir.y) > 0.99f ? vec3(1, 0, 0) : vec3(0, 1, 0);
+  const mat4 view = glm::lookAtRH(center + dir * radius * 2.0f, center, up);
+  // A bounding sphere keeps the map stable as the light turns; Vulkan depth 0..1.
+  mat4 projection = glm::orthoRH_ZO(-radius, radius, -radius, radius, radius * 0.5f, radius * 3.5f);
+  projection[1][1] *= -1.0f;
+  return projection * view;
+}
+
+
 gpu::VertexBufferLayout vertex_layout() {
   return {.stride = sizeof(Vertex),
           .attributes = {{gpu::VertexFormat::Float32x3, offsetof(Vertex, position), 0},

@@ -11,6 +11,7 @@ module;
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 export module weft.frame;
 import weft.core;
@@ -203,6 +204,32 @@ Result<void> add_scene_color_pass(RenderGraph& graph, ScenePassDesc desc, DrawSc
 
 // SPIR-V of shaders/fullscreen.vert: one triangle over the screen at the far plane, `uv` out.
 std::span<const std::uint32_t> fullscreen_vertex_spirv();
+
+// A full-screen pass's GPU objects: the triangle of fullscreen.vert, a fragment shader that
+// samples `textures` textures at bindings 0..textures-1 of set 0 (then the frame uniforms at
+// binding `textures` when `uniforms`), push constants of `push_size` bytes, one colour target.
+// Post-processing and debug passes (bloom, outline, debug views, users' passes) share it.
+struct FullscreenPipeline {
+  gpu::BindGroupLayout bind_layout;
+  gpu::PipelineLayout layout;
+  gpu::RenderPipeline pipeline;
+  std::uint32_t textures = 0;
+  bool uniforms = false;
+};
+Result<FullscreenPipeline> create_fullscreen_pipeline(gpu::Device& device, std::string label,
+                                                      std::span<const std::uint32_t> fragment_spirv,
+                                                      std::uint32_t textures, bool uniforms, std::uint32_t push_size,
+                                                      gpu::Format target);
+// Records one full-screen draw into `target` (its previous contents discarded): a bind group
+// of `textures` (each through `sampler`) and `uniforms`, kept until the frame is done.
+// Failures are reported on the encoder.
+void draw_fullscreen(PassContext& context, const FullscreenPipeline& pipeline, std::string_view label,
+                     const gpu::TextureView& target, std::span<const gpu::TextureView* const> textures,
+                     const gpu::Sampler& sampler, const gpu::Buffer* uniforms, std::span<const std::byte> push);
+
+// Orthographic light matrix enclosing the box [lo, hi] seen along `towards_light` (the key
+// light's shadow map; Vulkan depth 0..1).
+mat4 fit_light_view_projection(vec3 towards_light, vec3 lo, vec3 hi);
 
 // A camera for Vulkan's clip space (y down, depth 0..1, right-handed view).
 mat4 perspective_vk(float vertical_fov_radians, float aspect, float near_plane, float far_plane);

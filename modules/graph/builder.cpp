@@ -551,4 +551,21 @@ std::string_view RenderGraph::resource_name(std::uint32_t index) const {
   return index < data_->resources.size() ? data_->resources[index].name : std::string_view{};
 }
 
+TextureHandle RenderGraph::find_texture(std::string_view name) const {
+  const auto& resources = data_->resources;
+  for (std::uint32_t i = std::uint32_t(resources.size()); i-- > 0;) {
+    const detail::ResourceNode& r = resources[i];
+    if (r.type != ResourceType::Texture || r.name != name) continue;
+    const std::uint32_t version = r.latest_slot == invalid_index ? 0 : data_->versions[r.latest_slot].version;
+    return {i, version};
+  }
+  return {};
+}
+
+std::optional<TextureDesc> RenderGraph::texture_desc(TextureHandle handle) const {
+  if (handle.index >= data_->resources.size() || data_->resources[handle.index].type != ResourceType::Texture)
+    return std::nullopt;
+  return data_->resources[handle.index].texture_desc;
+}
+
 }  // namespace weft

@@ -212,6 +212,12 @@ class RenderGraph {
   [[nodiscard]] std::size_t pass_count() const;
   [[nodiscard]] std::size_t resource_count() const;
   [[nodiscard]] std::string_view resource_name(std::uint32_t index) const;
+  // The latest version of the texture declared (created or imported) as `name` -- the last
+  // one when a name repeats -- or an invalid handle: how a frame finds an intermediate by
+  // name after its passes were added (`weft render --output NAME`).
+  [[nodiscard]] TextureHandle find_texture(std::string_view name) const;
+  // A texture's descriptor as declared (relative sizes unresolved: TextureSize::resolve).
+  [[nodiscard]] std::optional<TextureDesc> texture_desc(TextureHandle handle) const;
 
   // Validates, culls, orders, plans memory and barriers. The compiled graph keeps what it
   // needs of this graph alive; passes added later are not part of it. After reset(), a frame

@@ -6,6 +6,8 @@ module;
 #include <expected>
 #include <memory>
 #include <map>
+#include <filesystem>
+#include <set>
 #include <optional>
 #include <span>
 #include <string>
@@ -21,32 +23,28 @@ import weft.graph;
 import weft.frame;
 import weft.image;
 import weft.scene;
-import weft.base_pass.shadow;
-import weft.base_pass.forward;
-import weft.base_pass.background;
-import weft.base_pass.tonemap;
+import weft.pipeline;
 
 namespace weft::renderer {
-
-namespace {
-std::uint32_t shadow_resolution(Quality q) {
-  switch (q) {
-    case Quality::Low: return 1024;
-    case Quality::Medium: return 2048;
-    case Quality::High: return 4096;
-    case Quality::Reference: return 8192;
-  }
-  return 2048;
-}
-}  // namespace
 
 struct Renderer::State {
   gpu::Device* device = nullptr;
   CacheStats stats;
-  std::optional<passes::ShadowPass> shadow;
-  std::optional<passes::ForwardPass> forward;
-  std::optional<passes::BackgroundPass> background;
-  std::optional<passes::TonemapPass> tonemap;
+  // The pipeline's pass instances by pass name; an instance is kept while the pipeline names
+  // a pass of that name with the same type and options.
+  struct Instance {
+    const pipeline::PassTypeDescriptor* type = nullptr;
+    pipeline::PassOptions options;
+    std::unique_ptr<pipeline::FramePass> pass;
+  };
+  std::map<std::string, Instance, std::less<>> instances;
+  std::optional<pipeline::Pipeline> default_pipeline;
+  // Pipeline files named by scenes, by path, with the modification time they were read at.
+  struct LoadedPipeline {
+    std::filesystem::file_time_type mtime;
+    pipeline::Pipeline pipeline;
+  };
+  std::map<std::filesystem::path, LoadedPipeline> pipeline_files;
   std::unordered_map<std::uint64_t, frame::GpuMesh> meshes;
   // Material maps by source and colour space ("srgb:" / "linear:" + path, or a hash of
   // embedded bytes); empty = failed to load. Samplers by their glTF settings.
@@ -55,10 +53,19 @@ struct Renderer::State {
   std::uint64_t environment_key = 0;
   std::optional<gpu::Texture> environment;
   std::array<vec4, 9> environment_sh{};
-  std::optional<gpu::Texture> no_shadow;  // 1x1 depth 1.0 when the scene has no key light
   std::optional<gpu::Buffer> uniforms;
   std::optional<gpu::Texture> output;
-  std::optional<gpu::Buffer> hdr_readback;  // RenderOptions::read_hdr: the scene colour, RGBA16F
+  // Host-visible copies of the resources a frame reads back (RenderOptions::read_hdr and
+  // ::outputs), by resource name.
+  std::map<std::string, gpu::Buffer, std::less<>> readback_buffers;
+  struct PendingReadback {
+    std::string name;        // what the caller asked for ("pass.slot" or a resource name)
+    gpu::Format format = gpu::Format::Undefined;
+    std::uint32_t width = 0, height = 0;
+    const gpu::Buffer* buffer = nullptr;
+    bool hdr = false;        // RenderOptions::read_hdr's image
+  };
+  std::vector<PendingReadback> readbacks;  // this frame's
   std::optional<RenderGraph> frame_graph;    // reset and rebuilt every frame
 
   // Features, created the first time a scene uses their material type.
@@ -88,42 +95,89 @@ struct Renderer::State {
       if (std::find(order.begin(), order.end(), type) == order.end()) order.push_back(type);
     return order;
   }
-  Result<void> ensure_passes(bool key_light, Quality quality);
+  Result<const pipeline::Pipeline*> choose_pipeline(const scene::Scene& scene, const RenderOptions& options);
+  Result<void> ensure_passes(const pipeline::Pipeline& pipeline);
+  pipeline::PassFrame pass_frame(const scene::Scene& scene, const RenderOptions& options, bool key_light);
+  Result<void> add_readback(RenderGraph& graph, std::string name, TextureHandle handle, bool hdr);
+  Result<void> prepare_passes(const scene::Scene& scene, const RenderOptions& options, const pipeline::Pipeline& pipeline,
+                              bool key_light) {
+    const pipeline::PassFrame frame = pass_frame(scene, options, key_light);
+    for (const auto& p : pipeline.passes)
+      if (auto ok = instances.at(p.name).pass->prepare(*device, frame); !ok)
+        return with_context(weft::format("{}: pass '{}' ({})", pipeline.source, p.name, p.type->name), ok.error());
+    return {};
+  }
   Result<void> upload_scene(const scene::Scene& scene);
   const gpu::TextureView* material_texture(const scene::Texture& texture, bool srgb, std::string_view material,
                                            std::string_view slot);
   const gpu::Sampler* material_sampler(const scene::TextureSampler& settings);
   frame::MaterialMap material_map(const scene::Texture& texture, bool srgb, std::string_view material, std::string_view slot);
   Result<void> prepare(const scene::Scene& scene, const RenderOptions& options, std::uint32_t w, std::uint32_t h);
-  Result<std::pair<RenderGraph*, TextureHandle>> build_graph(const scene::Scene& scene, const RenderOptions& options,
-                                                            bool key_light);
+  Result<RenderGraph*> build_graph(const scene::Scene& scene, const RenderOptions& options,
+                                   const pipeline::Pipeline& pipeline, bool key_light);
 };
 
-Result<void> Renderer::State::ensure_passes(bool key_light, Quality quality) {
-  auto create = [&](auto& slot, auto make) -> Result<void> {
-    if (slot) return {};
-    auto pass = make();
-    if (!pass) return std::unexpected(pass.error());
-    slot.emplace(std::move(*pass));
-    ++stats.pass_creations;
-    return {};
-  };
-  const std::uint32_t resolution = std::min(shadow_resolution(quality), device->adapter_info().limits.max_texture_dimension_2d);
-  if (key_light && shadow && shadow->settings().resolution != resolution) shadow.reset();
-  if (key_light)
-    if (auto ok = create(shadow, [&] { return passes::ShadowPass::create(*device, {.resolution = resolution}); }); !ok) return ok;
-  if (auto ok = create(forward, [&] { return passes::ForwardPass::create(*device); }); !ok) return ok;
-  if (auto ok = create(background, [&] { return passes::BackgroundPass::create(*device); }); !ok) return ok;
-  if (auto ok = create(tonemap, [&] { return passes::TonemapPass::create(*device); }); !ok) return ok;
-  if (!key_light && !no_shadow) {
-    auto t = device->create_texture({.label = "no_shadow", .size = {1, 1, 1}, .format = gpu::Format::Depth32Float,
-                                     .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
-    if (!t) return std::unexpected(t.error());
-    const float far_depth = 1.0f;
-    if (auto ok = device->queue().write_texture(*t, std::as_bytes(std::span(&far_depth, 1))); !ok) return ok;
-    no_shadow.emplace(std::move(*t));
+Result<const pipeline::Pipeline*> Renderer::State::choose_pipeline(const scene::Scene& scene,
+                                                                   const RenderOptions& options) {
+  if (options.pipeline) return options.pipeline;
+  if (!scene.pipeline.empty()) {
+    std::error_code ec;
+    const auto mtime = std::filesystem::last_write_time(scene.pipeline, ec);
+    auto it = pipeline_files.find(scene.pipeline);
+    if (it == pipeline_files.end() || ec || it->second.mtime != mtime) {
+      auto loaded = pipeline::load_pipeline(scene.pipeline);
+      if (!loaded) return std::unexpected(loaded.error());
+      it = pipeline_files.insert_or_assign(scene.pipeline, LoadedPipeline{mtime, std::move(*loaded)}).first;
+    }
+    return &it->second.pipeline;
   }
+  if (!default_pipeline) {
+    auto loaded = pipeline::default_pipeline();
+    if (!loaded) return with_context("the default pipeline", loaded.error());
+    default_pipeline.emplace(std::move(*loaded));
+  }
+  return &*default_pipeline;
+}
+
+Result<void> Renderer::State::ensure_passes(const pipeline::Pipeline& pipeline) {
+  std::set<std::string, std::less<>> used;
+  for (const auto& p : pipeline.passes) {
+    used.insert(p.name);
+    auto& instance = instances[p.name];
+    if (instance.pass && instance.type == p.type && instance.options == p.options) continue;
+    auto made = p.type->create(p.options);
+    if (!made) return with_context(weft::format("{}: creating pass '{}' ({})", pipeline.source, p.name, p.type->name), made.error());
+    instance = {p.type, p.options, std::move(*made)};
+    ++stats.pass_creations;
+  }
+  std::erase_if(instances, [&](const auto& entry) { return !used.contains(entry.first); });
   return {};
+}
+
+pipeline::PassFrame Renderer::State::pass_frame(const scene::Scene& scene, const RenderOptions& options, bool key_light) {
+  const auto w = std::uint32_t(frame_uniforms.viewport.x), h = std::uint32_t(frame_uniforms.viewport.y);
+  return pipeline::PassFrame{
+      .device = device,
+      .scene = scene,
+      .items = items,
+      .shadow_casters = shadow_casters,
+      .uniforms = frame_uniforms,
+      .quality = options.quality,
+      .width = w,
+      .height = h,
+      .key_light = key_light,
+      .exposure = options.exposure,
+      .aces = options.aces,
+      .add_feature_passes =
+          [this, &scene, &options, w, h](RenderGraph& graph) -> Result<void> {
+        for (const std::string& type : feature_order()) {
+          const auto& feature = features.at(type);
+          if (auto ok = feature->add_passes(graph, feature_frame(scene, type, options, w, h)); !ok)
+            return with_context(weft::format("feature '{}'", feature->name()), ok.error());
+        }
+        return {};
+      },
+  };
 }
 
 Result<void> Renderer::State::upload_scene(const scene::Scene& scene) {
@@ -321,7 +375,7 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
     const auto bounds = scene.bounds();
     u.light_direction = vec4(towards, 0.0f);
     u.light_color = vec4(key->color * key->intensity, 0.0f);
-    u.light_view_projection = passes::fit_light_view_projection(towards, bounds.min, bounds.max);
+    u.light_view_projection = frame::fit_light_view_projection(towards, bounds.min, bounds.max);
   } else {
     u.light_direction = vec4(0, 1, 0, 0);
     u.light_color = vec4(0.0f);
@@ -359,24 +413,55 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
   }
   if (!output || output->size().width != w || output->size().height != h) {
     output.reset();
-    auto t = device->create_texture({.label = "output", .size = {w, h, 1}, .format = passes::output_format,
+    auto t = device->create_texture({.label = "output", .size = {w, h, 1}, .format = gpu::Format::RGBA8Unorm,
                                      .usage = gpu::TextureUsage::ColorAttachment | gpu::TextureUsage::CopySrc});
     if (!t) return std::unexpected(t.error());
     output.emplace(std::move(*t));
   }
-  const std::uint64_t hdr_bytes = std::uint64_t(w) * h * 8;  // RGBA16F
-  if (options.read_hdr && (!hdr_readback || hdr_readback->size() != hdr_bytes)) {
-    hdr_readback.reset();
-    auto b = device->create_buffer(
-        {.label = "hdr_readback", .size = hdr_bytes, .usage = gpu::BufferUsage::CopyDst | gpu::BufferUsage::MapRead});
-    if (!b) return std::unexpected(b.error());
-    hdr_readback.emplace(std::move(*b));
-  }
   return {};
 }
 
-Result<std::pair<RenderGraph*, TextureHandle>> Renderer::State::build_graph(const scene::Scene& scene,
-                                                                            const RenderOptions& options, bool key_light) {
+// A copy of `handle` into a host-visible buffer after the pass that made it, read back once
+// the frame has executed.
+Result<void> Renderer::State::add_readback(RenderGraph& graph, std::string name, TextureHandle handle, bool hdr) {
+  const auto desc = graph.texture_desc(handle);
+  if (!desc) return fail(ErrorKind::InvalidArgument, "'{}' is not a texture of this frame", name);
+  const gpu::Extent3D size = desc->size.resolve({std::uint32_t(frame_uniforms.viewport.x), std::uint32_t(frame_uniforms.viewport.y), 1});
+  const auto& info = gpu::format_info(desc->format);
+  if (desc->dimension != gpu::TextureDimension::D2 || size.depth_or_layers != 1)
+    return fail(ErrorKind::Unsupported, "'{}' is not a single 2D image; only those can be read back", name);
+  if (desc->format == gpu::Format::Depth24PlusStencil8)
+    return fail(ErrorKind::Unsupported, "'{}' is {}; its depth cannot be copied out as such", name, info.name);
+  const std::uint64_t bytes = std::uint64_t(size.width) * size.height * info.bytes_per_texel;
+  const std::string label = hdr ? std::string("hdr_readback") : "readback:" + name;
+  auto it = readback_buffers.find(label);
+  if (it == readback_buffers.end() || it->second.size() != bytes) {
+    if (it != readback_buffers.end()) readback_buffers.erase(it);
+    auto b = device->create_buffer({.label = label, .size = bytes, .usage = gpu::BufferUsage::CopyDst | gpu::BufferUsage::MapRead});
+    if (!b) return std::unexpected(b.error());
+    it = readback_buffers.emplace(label, std::move(*b)).first;
+  }
+  struct Copy {
+    TextureHandle source;
+    BufferHandle target;
+  };
+  const BufferHandle target = graph.import_buffer(label, &it->second, gpu::Access::Undefined);
+  auto& copy = graph.add_pass<Copy>(
+      label,
+      [&](PassBuilder& b, Copy& d) {
+        d.source = b.read(handle, TextureUse::CopySrc);
+        d.target = b.write(target, BufferUse::CopyDst);
+      },
+      [](const PassResources& res, const Copy& d, PassContext& ctx) {
+        ctx.encoder().copy_texture_to_buffer(res.texture(d.source), res.buffer(d.target), 0);
+      });
+  graph.mark_output(copy.target, gpu::Access::HostRead);
+  readbacks.push_back({std::move(name), desc->format, size.width, size.height, &it->second, hdr});
+  return {};
+}
+
+Result<RenderGraph*> Renderer::State::build_graph(const scene::Scene& scene, const RenderOptions& options,
+                                                  const pipeline::Pipeline& pipeline, bool key_light) {
   // One graph, reset and refilled every frame: its arrays, arena and compile state are reused
   // (RenderGraph::reset), so a steady frame's setup and compile allocate next to nothing.
   if (frame_graph)
@@ -384,48 +469,86 @@ Result<std::pair<RenderGraph*, TextureHandle>> Renderer::State::build_graph(cons
   else
     frame_graph.emplace("frame");
   RenderGraph& graph = *frame_graph;
+  readbacks.clear();
   auto& board = graph.blackboard();
   frame::put_scene_targets(
       board, {.uniforms = graph.import_buffer("frame_uniforms", &*uniforms, gpu::Access::UniformRead),
               .environment = graph.import_texture("environment", &*environment, gpu::Access::ShaderRead)});
-  if (key_light)
-    shadow->add(graph, shadow_casters, frame_uniforms.light_view_projection);
-  else
-    frame::put_scene_targets(board, {.shadow_map = graph.import_texture("no_shadow", &*no_shadow, gpu::Access::ShaderRead)});
-  if (auto ok = forward->add(graph, items); !ok) return std::unexpected(ok.error());
-  for (const std::string& type : feature_order()) {
-    const auto& feature = features.at(type);
-    const auto w = std::uint32_t(frame_uniforms.viewport.x), h = std::uint32_t(frame_uniforms.viewport.y);
-    if (auto ok = feature->add_passes(graph, feature_frame(scene, type, options, w, h)); !ok)
-      return with_context(weft::format("feature '{}'", feature->name()), ok.error());
-  }
-  if (auto ok = background->add(graph); !ok) return std::unexpected(ok.error());
+
+  // What to read back after which pass: the HDR image the frame's image is made from, and the
+  // slots the caller named ("pass.slot"); other names are looked up once every pass is in.
+  const pipeline::SlotRef& image = pipeline.outputs.front();
+  std::optional<pipeline::SlotRef> hdr_source;
   if (options.read_hdr) {
-    auto targets = frame::scene_targets(board);
-    if (!targets) return std::unexpected(targets.error());
-    const TextureHandle color = targets->color;
-    struct HdrCopy {
-      TextureHandle color;
-      BufferHandle readback;
-    };
-    const BufferHandle target = graph.import_buffer("hdr_readback", &*hdr_readback, gpu::Access::Undefined);
-    auto& copy = graph.add_pass<HdrCopy>(
-        "hdr_readback",
-        [&](PassBuilder& b, HdrCopy& d) {
-          d.color = b.read(color, TextureUse::CopySrc);
-          d.readback = b.write(target, BufferUse::CopyDst);
-        },
-        [](const PassResources& res, const HdrCopy& d, PassContext& ctx) {
-          ctx.encoder().copy_texture_to_buffer(res.texture(d.color), res.buffer(d.readback), 0);
-        });
-    graph.mark_output(copy.readback, gpu::Access::HostRead);
+    const pipeline::PipelinePass* maker = pipeline.find(image.pass);
+    for (const auto& in : maker->type->inputs)
+      if (in.linear_source) hdr_source = pipeline.source_of({image.pass, in.name});
+    if (!hdr_source)
+      return fail(ErrorKind::InvalidArgument, "{}: the frame's image '{}' is not made from a linear HDR input (its pass has "
+                  "none marked), so there is no HDR image to read back; name one with --output PASS.SLOT",
+                  pipeline.source, image.text());
   }
-  auto out = tonemap->add(graph, graph.import_texture("output", &*output, gpu::Access::Undefined),
-                          {.exposure = options.exposure,
-                           .tone_operator = options.aces ? passes::ToneOperator::Aces : passes::ToneOperator::Clamp});
-  if (!out) return std::unexpected(out.error());
-  graph.mark_output(*out, gpu::Access::CopySrc);
-  return std::pair{&graph, *out};
+  std::vector<std::string> by_name;
+  std::vector<std::pair<std::string, pipeline::SlotRef>> by_slot;
+  for (const auto& name : options.outputs) {
+    auto ref = pipeline::parse_slot_ref(name);
+    const pipeline::PipelinePass* p = ref ? pipeline.find(ref->pass) : nullptr;
+    if (p && pipeline::find_output(*p->type, ref->slot))
+      by_slot.emplace_back(name, *ref);
+    else
+      by_name.push_back(name);
+  }
+
+  const pipeline::PassFrame frame = pass_frame(scene, options, key_light);
+  std::map<std::string, TextureHandle> produced;  // "pass.slot" -> this frame's handle
+  for (const auto& p : pipeline.passes) {
+    std::vector<pipeline::PassSlots::Binding> inputs, targets;
+    for (const auto& in : p.type->inputs) {
+      const auto from = pipeline.source_of({p.name, in.name});
+      if (!from) continue;
+      const TextureHandle handle = produced[from->text()];
+      if (!handle && !in.optional)
+        return fail(ErrorKind::Graph, "{}: pass '{}' input '{}': '{}' produced nothing this frame", pipeline.source, p.name,
+                    in.name, from->text());
+      inputs.push_back({in.name, handle});
+    }
+    if (p.name == image.pass) targets.push_back({image.slot, graph.import_texture("output", &*output, gpu::Access::Undefined)});
+    pipeline::PassSlots slots(p.name, std::move(inputs), std::move(targets));
+    if (auto ok = instances.at(p.name).pass->add(graph, frame, slots); !ok)
+      return with_context(weft::format("{}: pass '{}' ({})", pipeline.source, p.name, p.type->name), ok.error());
+    for (const auto& out : p.type->outputs) produced[p.name + "." + out.name] = slots.output(out.name);
+    for (const auto& out : p.type->outputs) {
+      const pipeline::SlotRef ref{p.name, out.name};
+      const TextureHandle handle = slots.output(out.name);
+      if (hdr_source && *hdr_source == ref && handle)
+        if (auto ok = add_readback(graph, ref.text(), handle, true); !ok) return std::unexpected(ok.error());
+      for (const auto& [name, wanted] : by_slot) {
+        if (!(wanted == ref)) continue;
+        if (!handle) return fail(ErrorKind::NotFound, "--output {}: the pass made nothing there this frame", name);
+        if (auto ok = add_readback(graph, name, handle, false); !ok) return with_context("--output " + name, ok.error());
+      }
+    }
+  }
+  for (const auto& name : by_name) {
+    const TextureHandle handle = graph.find_texture(name);
+    if (!handle) {
+      std::set<std::string> names;
+      for (std::uint32_t i = 0; i < graph.resource_count(); ++i) names.insert(std::string(graph.resource_name(i)));
+      std::string slots, resources;
+      for (const auto& p : pipeline.passes)
+        for (const auto& out : p.type->outputs) slots += (slots.empty() ? "" : ", ") + p.name + "." + out.name;
+      for (const auto& n : names) resources += (resources.empty() ? "" : ", ") + n;
+      return fail(ErrorKind::NotFound, "--output '{}': no pass slot or resource of this frame has that name (slots: {}; "
+                  "resources: {})", name, slots, resources);
+    }
+    if (auto ok = add_readback(graph, name, handle, false); !ok) return with_context("--output " + name, ok.error());
+  }
+  const TextureHandle out = produced[image.text()];
+  if (!out) return fail(ErrorKind::Graph, "{}: the frame's image '{}' was not produced", pipeline.source, image.text());
+  graph.mark_output(out, gpu::Access::CopySrc);
+  for (std::size_t i = 1; i < pipeline.outputs.size(); ++i)
+    if (const TextureHandle extra = produced[pipeline.outputs[i].text()]) graph.mark_output(extra);
+  return &graph;
 }
 
 Result<Renderer> Renderer::create(gpu::Device& device) {
@@ -461,19 +584,77 @@ Result<GraphReport> Renderer::describe(const scene::Scene& scene, const RenderOp
   if (!size) return std::unexpected(size.error());
   const bool key = has_key_light(scene);
   auto& s = *state_;
-  if (auto ok = s.ensure_passes(key, options.quality); !ok) return std::unexpected(ok.error());
+  auto pipeline = s.choose_pipeline(scene, options);
+  if (!pipeline) return std::unexpected(pipeline.error());
+  if (auto ok = s.ensure_passes(**pipeline); !ok) return std::unexpected(ok.error());
   if (auto ok = s.upload_scene(scene); !ok) return std::unexpected(ok.error());
   if (auto ok = s.prepare(scene, options, size->first, size->second); !ok) return std::unexpected(ok.error());
-  auto built = s.build_graph(scene, options, key);
+  if (auto ok = s.prepare_passes(scene, options, **pipeline, key); !ok) return std::unexpected(ok.error());
+  auto built = s.build_graph(scene, options, **pipeline, key);
   if (!built) return std::unexpected(built.error());
-  auto compiled = built->first->compile({.output_extent = {size->first, size->second, 1}, .device = s.device});
+  auto compiled = (*built)->compile({.output_extent = {size->first, size->second, 1}, .device = s.device});
   if (!compiled) return std::unexpected(compiled.error().to_error());
   GraphReport report{compiled->to_dot(), compiled->dump(), {}, {}};
   for (auto index : compiled->order()) report.passes.emplace_back(compiled->passes()[index].name);
   for (const auto& p : compiled->passes())
     if (p.culled) report.culled_passes.emplace_back(p.name);
+  for (const auto& r : compiled->resources()) report.resources.emplace_back(r.name);
+  for (const auto& p : (*pipeline)->passes)
+    for (const auto& out : p.type->outputs) report.slots.push_back(p.name + "." + out.name);
+  report.pipeline = pipeline::to_json(**pipeline);
+  report.warnings = (*pipeline)->warnings;
   return report;
 }
+
+namespace {
+// Readback bytes as linear RGBA floats: colour formats by channel (8-bit unorm scaled to
+// 0..1, sRGB decoded), depth in the red channel.
+image::Image to_float_rgba(const std::vector<std::byte>& bytes, gpu::Format format, std::uint32_t w, std::uint32_t h) {
+  image::Image out = image::Image::filled(w, h, 4);
+  const auto& info = gpu::format_info(format);
+  const std::size_t n = std::size_t(w) * h;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::byte* texel = bytes.data() + i * info.bytes_per_texel;
+    float v[4] = {0, 0, 0, 1};
+    for (std::uint32_t c = 0; c < info.components && c < 4; ++c) {
+      switch (format) {
+        case gpu::Format::R8Unorm: case gpu::Format::RG8Unorm: case gpu::Format::RGBA8Unorm: case gpu::Format::RGBA8Srgb:
+          v[c] = float(std::to_integer<std::uint8_t>(texel[c])) / 255.0f;
+          if (format == gpu::Format::RGBA8Srgb && c < 3) v[c] = image::srgb_to_linear(v[c]);
+          break;
+        case gpu::Format::BGRA8Unorm:
+          v[c] = float(std::to_integer<std::uint8_t>(texel[c == 3 ? 3 : 2 - c])) / 255.0f;
+          break;
+        case gpu::Format::R16Float: case gpu::Format::RG16Float: case gpu::Format::RGBA16Float: {
+          std::uint16_t half;
+          std::memcpy(&half, texel + 2 * c, 2);
+          v[c] = glm::unpackHalf1x16(half);
+          break;
+        }
+        case gpu::Format::R32Float: case gpu::Format::RG32Float: case gpu::Format::RGBA32Float: case gpu::Format::Depth32Float:
+          std::memcpy(&v[c], texel + 4 * c, 4);
+          break;
+        case gpu::Format::R32Uint: case gpu::Format::RGBA32Uint: {
+          std::uint32_t u;
+          std::memcpy(&u, texel + 4 * c, 4);
+          v[c] = float(u);
+          break;
+        }
+        case gpu::Format::Depth16Unorm: {
+          std::uint16_t d;
+          std::memcpy(&d, texel, 2);
+          v[c] = float(d) / 65535.0f;
+          break;
+        }
+        default: break;
+      }
+    }
+    if (info.components == 1 && !info.depth) v[1] = v[2] = v[0];  // one channel shows as grey
+    for (int c = 0; c < 4; ++c) out.pixels[i * 4 + c] = v[c];
+  }
+  return out;
+}
+}  // namespace
 
 Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& options) {
   auto size = frame_size(scene, options);
@@ -481,12 +662,15 @@ Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& o
   const auto [w, h] = *size;
   const bool key = has_key_light(scene);
   auto& s = *state_;
-  if (auto ok = s.ensure_passes(key, options.quality); !ok) return std::unexpected(ok.error());
+  auto pipeline = s.choose_pipeline(scene, options);
+  if (!pipeline) return std::unexpected(pipeline.error());
+  if (auto ok = s.ensure_passes(**pipeline); !ok) return std::unexpected(ok.error());
   if (auto ok = s.upload_scene(scene); !ok) return std::unexpected(ok.error());
   if (auto ok = s.prepare(scene, options, w, h); !ok) return std::unexpected(ok.error());
-  auto built = s.build_graph(scene, options, key);
+  if (auto ok = s.prepare_passes(scene, options, **pipeline, key); !ok) return std::unexpected(ok.error());
+  auto built = s.build_graph(scene, options, **pipeline, key);
   if (!built) return std::unexpected(built.error());
-  auto compiled = built->first->compile({.output_extent = {w, h, 1}, .device = s.device});
+  auto compiled = (*built)->compile({.output_extent = {w, h, 1}, .device = s.device});
   if (!compiled) return std::unexpected(compiled.error().to_error());
   ++(compiled->plan_reused() ? s.stats.graph_plans_reused : s.stats.graph_plans);
   auto stats = compiled->execute(*s.device, {.timestamps = options.timestamps, .serial_passes = options.serial_passes});
@@ -496,16 +680,19 @@ Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& o
   Frame frame;
   frame.image = image::Image8::filled(w, h, 4);
   std::memcpy(frame.image.pixels.data(), pixels->data(), frame.image.pixels.size());
-  if (options.read_hdr) {
-    auto bytes = s.device->queue().read_buffer(*s.hdr_readback);
+  for (const auto& r : s.readbacks) {
+    auto bytes = s.device->queue().read_buffer(*r.buffer);
     if (!bytes) return std::unexpected(bytes.error());
-    frame.hdr = image::Image::filled(w, h, 4);
-    const auto* halves = reinterpret_cast<const std::uint16_t*>(bytes->data());
-    for (std::size_t i = 0; i < frame.hdr.pixels.size(); ++i) frame.hdr.pixels[i] = glm::unpackHalf1x16(halves[i]);
+    if (r.hdr) {
+      frame.hdr = to_float_rgba(*bytes, r.format, r.width, r.height);
+      continue;
+    }
+    frame.outputs.push_back({r.name, r.format, to_float_rgba(*bytes, r.format, r.width, r.height)});
   }
   frame.stats = std::move(*stats);
   for (auto index : compiled->order()) frame.passes.emplace_back(compiled->passes()[index].name);
   frame.warnings = s.warnings;
+  for (const auto& w2 : (*pipeline)->warnings) frame.warnings.push_back(w2);
   return frame;
 }
 

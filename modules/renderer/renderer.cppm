@@ -1,8 +1,10 @@
-// weft.renderer — turns a scene into a frame: adds only the passes the scene's materials
-// and lights need, builds and compiles the graph, executes it and reads the image back.
+// weft.renderer — turns a scene and a pipeline into a frame: instantiates the pipeline's
+// passes from the pass-type registry (weft.pipeline; the scene's "pipeline" file, or the
+// default one), lets the scene-colour stage add the features the scene's materials use, builds
+// and compiles the graph, executes it and reads the image (and any resource asked for) back.
 // A material that is not "standard" is drawn by the registered feature of its type
-// (weft::feature_registry()); the renderer names no feature. GPU meshes, environment maps
-// and pass pipelines are cached across frames.
+// (weft::feature_registry()); the renderer names no pass and no feature. GPU meshes,
+// environment maps and pass instances are cached across frames.
 module;
 #include <cstdint>
 #include <expected>
@@ -17,6 +19,7 @@ import weft.image;
 import weft.scene;
 import weft.frame;
 export import weft.feature;
+export import weft.pipeline;
 
 export namespace weft::renderer {
 
@@ -35,6 +38,20 @@ struct RenderOptions {
   // Also read back the scene colour before tone mapping into Frame::hdr (linear RGBA float):
   // what stability tests inspect, since NaN and infinity do not survive the 8-bit output.
   bool read_hdr = false;
+  // The frame to render; null: the scene's "pipeline" file, or the default pipeline. Must
+  // outlive the call.
+  const pipeline::Pipeline* pipeline = nullptr;
+  // Resources to read back into Frame::outputs: a pass's output slot ("background.color",
+  // "scene.depth") or the name of any texture of the compiled frame ("ssdf_visibility").
+  std::vector<std::string> outputs;
+};
+
+// A resource read back for RenderOptions::outputs, as linear RGBA floats (8-bit formats
+// scaled to 0..1, sRGB decoded; one-channel colour as grey; depth in red, green and blue 0).
+struct Readback {
+  std::string name;
+  gpu::Format format = gpu::Format::Undefined;  // the resource's own format
+  image::Image pixels;
 };
 
 struct Frame {
@@ -43,6 +60,7 @@ struct Frame {
   FrameStats stats;           // per-pass GPU and CPU times, transient memory
   std::vector<std::string> passes;  // the passes that ran, in order
   std::vector<std::string> warnings;
+  std::vector<Readback> outputs;  // RenderOptions::outputs, in that order
 };
 
 // The compiled graph of a scene without executing it: for `weft graph` and tests.
@@ -51,6 +69,10 @@ struct GraphReport {
   std::string dump;
   std::vector<std::string> passes;         // executed passes, in order
   std::vector<std::string> culled_passes;
+  std::vector<std::string> resources;      // every resource of the frame, by declaration
+  std::vector<std::string> slots;          // every pass output of the pipeline, "pass.slot"
+  std::string pipeline;                    // the pipeline as a file (pipeline::to_json)
+  std::vector<std::string> warnings;       // the pipeline's (passes reaching no output)
 };
 
 class Renderer {

@@ -119,6 +119,7 @@ Result<Scene> load_scene(const SceneDesc& desc) {
     Scene scene;
     scene.source = desc.source;
     scene.output = desc.output;
+    scene.pipeline = desc.pipeline;
     scene.lights = desc.lights;
     scene.materials = desc.materials;
     scene.meshes.reserve(desc.meshes.size());

@@ -471,6 +471,7 @@ struct SceneDesc {
   std::filesystem::path source;  // the scene file; empty when parsed from text
   int version = 1;
   Output output;
+  std::filesystem::path pipeline;  // the frame's pipeline file ("pipeline"); empty: the default one
   std::optional<Camera> camera;  // none: load_scene frames the scene's bounds
   EnvironmentSource environment;
   std::vector<Light> lights;
@@ -491,6 +492,7 @@ struct SceneDesc {
 struct Scene {
   std::filesystem::path source;
   Output output;
+  std::filesystem::path pipeline;  // the pipeline file the scene names; empty: the default pipeline
   Camera camera;
   Environment environment;
   std::vector<Light> lights;
@@ -513,6 +515,13 @@ struct Scene {
 // and a dim constant environment.
 [[nodiscard]] Result<Scene> load_scene(const std::filesystem::path& path);
 [[nodiscard]] Result<Scene> scene_from_gltf(GltfScene gltf);
+// A JSON text's nesting depth and repeated keys, before a reader builds values from it: a
+// Parse error naming the JSON path ("$.passes: the key 'bloom' appears twice in one
+// object"). Syntax errors are left to the reader that follows. Scene, glTF and pipeline
+// files share it.
+[[nodiscard]] Result<void> check_json_text(std::string_view text, std::size_t max_depth);
+// A whole text file (NotFound / Io errors name `what` and the path), as the scene reader reads one.
+[[nodiscard]] Result<std::string> read_text_file(const std::filesystem::path& path, std::string_view what);
 
 }  // namespace weft::scene
 

@@ -287,6 +287,9 @@ Result<SceneDesc> parse_scene(std::string_view json_text, const std::filesystem:
     }
     (void)r.string("description");
     if (auto o = r.object("output")) desc.output = read_output(*o);
+    desc.pipeline = r.path("pipeline");
+    if (!desc.pipeline.empty() && detail::lowercase_extension(desc.pipeline) != ".json")
+      r.error_at("pipeline", fmt::format("'{}' is not a .json pipeline file", desc.pipeline.string()));
     if (auto c = r.object("camera")) desc.camera = read_camera(*c);
     if (auto e = r.object("environment")) desc.environment = read_environment(*e);
     std::size_t light_index = 0;

@@ -1,5 +1,6 @@
 module;
 #include <expected>
+#include <string_view>
 #include <memory>
 #include <vector>
 #include <weft/try.h>
@@ -39,7 +40,7 @@ Result<BackgroundPass> BackgroundPass::create(gpu::Device& device) {
   return pass;
 }
 
-Result<void> BackgroundPass::add(RenderGraph& graph) const {
+Result<void> BackgroundPass::add(RenderGraph& graph, std::string_view name) const {
   struct Data {
     BufferHandle uniforms;
     TextureHandle environment, color, depth;
@@ -47,7 +48,7 @@ Result<void> BackgroundPass::add(RenderGraph& graph) const {
   WEFT_TRY(const frame::SceneTargets shared, frame::scene_targets(graph.blackboard(), {.shadow_map = false}));
   auto state = state_;
   auto& data = graph.add_pass<Data>(
-      "background",
+      name,
       [&](PassBuilder& b, Data& d) {
         d.uniforms = b.read(shared.uniforms, BufferUse::Uniform);
         d.environment = b.read(shared.environment, TextureUse::Sampled);

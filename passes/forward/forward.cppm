@@ -11,6 +11,7 @@ export module weft.base_pass.forward;
 import weft.core;
 import weft.gpu;
 import weft.graph;
+import weft.pipeline;
 import weft.frame;
 
 export namespace weft::passes {
@@ -30,5 +31,8 @@ class ForwardPass {
   struct State;
   std::shared_ptr<State> state_;
 };
+
+// The pass type of the scene colour stage (pass_type.cpp); weft::register_builtins() registers it.
+const pipeline::PassTypeDescriptor& scene_color_pass_type();
 
 }  // namespace weft::passes

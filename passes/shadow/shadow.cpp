@@ -4,24 +4,13 @@ module;
 #include <cstdint>
 #include <expected>
 #include <span>
+#include <string_view>
 #include <glm/gtc/matrix_transform.hpp>
 #include "weft_pass_shadow_shaders.h"
 #include <weft/try.h>
 module weft.base_pass.shadow;
 
 namespace weft::passes {
-
-mat4 fit_light_view_projection(vec3 towards_light, vec3 lo, vec3 hi) {
-  const vec3 center = 0.5f * (lo + hi);
-  const float radius = std::max(0.5f * glm::length(hi - lo), 1e-4f);
-  const vec3 dir = glm::normalize(towards_light);
-  const vec3 up = std::abs(dir.y) > 0.99f ? vec3(1, 0, 0) : vec3(0, 1, 0);
-  const mat4 view = glm::lookAtRH(center + dir * radius * 2.0f, center, up);
-  // A bounding sphere keeps the map stable as the light turns; Vulkan depth 0..1.
-  mat4 projection = glm::orthoRH_ZO(-radius, radius, -radius, radius, radius * 0.5f, radius * 3.5f);
-  projection[1][1] *= -1.0f;
-  return projection * view;
-}
 
 Result<ShadowPass> ShadowPass::create(gpu::Device& device, const ShadowSettings& settings) {
   if (settings.resolution < 16 || settings.resolution > device.adapter_info().limits.max_texture_dimension_2d)
@@ -42,13 +31,13 @@ Result<ShadowPass> ShadowPass::create(gpu::Device& device, const ShadowSettings&
 }
 
 TextureHandle ShadowPass::add(RenderGraph& graph, std::span<const frame::DrawItem> items,
-                              const mat4& light_view_projection) const {
+                              const mat4& light_view_projection, std::string_view name) const {
   struct Data {
     TextureHandle depth;
   };
   const std::uint32_t n = settings_.resolution;
   auto& data = graph.add_pass<Data>(
-      "shadow_map",
+      name,
       [&](PassBuilder& b, Data& d) {
         d.depth = b.create_texture("shadow_map", {.size = gpu::Extent3D{n, n, 1}, .format = gpu::Format::Depth32Float});
         d.depth = b.write(d.depth, TextureUse::DepthAttachment);

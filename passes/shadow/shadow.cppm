@@ -4,10 +4,12 @@ module;
 #include <cstdint>
 #include <expected>
 #include <span>
+#include <string_view>
 export module weft.base_pass.shadow;
 import weft.core;
 import weft.gpu;
 import weft.graph;
+import weft.pipeline;
 import weft.frame;
 
 export namespace weft::passes {
@@ -18,14 +20,14 @@ struct ShadowSettings {
   float depth_bias_slope = 2.0f;
 };
 
-// Orthographic light matrix enclosing the box [lo, hi] seen along `towards_light`.
-mat4 fit_light_view_projection(vec3 towards_light, vec3 lo, vec3 hi);
+using frame::fit_light_view_projection;  // lives in weft.frame (the renderer needs it too)
 
 class ShadowPass {
  public:
   static Result<ShadowPass> create(gpu::Device& device, const ShadowSettings& settings = {});
   // Adds the pass; `items` and `light_view_projection` must outlive the graph's execution.
-  TextureHandle add(RenderGraph& graph, std::span<const frame::DrawItem> items, const mat4& light_view_projection) const;
+  TextureHandle add(RenderGraph& graph, std::span<const frame::DrawItem> items, const mat4& light_view_projection,
+                    std::string_view name = "shadow_map") const;
   [[nodiscard]] const ShadowSettings& settings() const { return settings_; }
 
  private:
@@ -35,5 +37,8 @@ class ShadowPass {
   ShadowPass(ShadowSettings s, gpu::PipelineLayout l, gpu::RenderPipeline p)
       : settings_(s), layout_(std::move(l)), pipeline_(std::move(p)) {}
 };
+
+// The pass type of the key light's depth map (pass_type.cpp); weft::register_builtins() registers it.
+const pipeline::PassTypeDescriptor& shadow_map_pass_type();
 
 }  // namespace weft::passes

@@ -2,6 +2,8 @@ module;
 #include <cstdint>
 #include <expected>
 #include <memory>
+#include <string>
+#include <string_view>
 #include <vector>
 #include <weft/try.h>
 #include "weft_pass_tonemap_shaders.h"
@@ -39,20 +41,27 @@ Result<TonemapPass> TonemapPass::create(gpu::Device& device) {
   return pass;
 }
 
-Result<TextureHandle> TonemapPass::add(RenderGraph& graph, TextureHandle output, const TonemapSettings& settings) const {
+Result<TextureHandle> TonemapPass::add(RenderGraph& graph, TextureHandle color, TextureHandle output,
+                                       const TonemapSettings& settings, std::string_view name) const {
   struct Data {
     TextureHandle color, output;
   };
-  WEFT_TRY(const frame::SceneTargets shared,
-           frame::scene_targets(graph.blackboard(),
-                                {.uniforms = false, .environment = false, .shadow_map = false, .depth = false}));
+  if (!color) {
+    WEFT_TRY(const frame::SceneTargets shared,
+             frame::scene_targets(graph.blackboard(),
+                                  {.uniforms = false, .environment = false, .shadow_map = false, .depth = false}));
+    color = shared.color;
+  }
   auto state = state_;
   const Push push{settings.exposure, std::uint32_t(settings.tone_operator)};
+  const std::string transient_name = output ? std::string() : std::string(name) + ".color";
   auto& data = graph.add_pass<Data>(
-      "tonemap",
+      name,
       [&](PassBuilder& b, Data& d) {
-        d.color = b.read(shared.color, TextureUse::Sampled);
-        d.output = b.write(output, TextureUse::ColorAttachment);
+        d.color = b.read(color, TextureUse::Sampled);
+        TextureHandle target = output;
+        if (!target) target = b.create_texture(transient_name, {.format = output_format});
+        d.output = b.write(target, TextureUse::ColorAttachment);
       },
       [state, push](const PassResources& res, const Data& d, PassContext& ctx) {
         auto group = ctx.device().create_bind_group(

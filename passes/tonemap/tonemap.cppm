@@ -3,10 +3,12 @@
 module;
 #include <expected>
 #include <memory>
+#include <string_view>
 export module weft.base_pass.tonemap;
 import weft.core;
 import weft.gpu;
 import weft.graph;
+import weft.pipeline;
 
 export namespace weft::passes {
 
@@ -22,12 +24,18 @@ inline constexpr gpu::Format output_format = gpu::Format::RGBA8Unorm;
 class TonemapPass {
  public:
   static Result<TonemapPass> create(gpu::Device& device);
-  // Reads "scene_color" and writes `output` (an RGBA8 texture); returns its new version.
-  Result<TextureHandle> add(RenderGraph& graph, TextureHandle output, const TonemapSettings& settings) const;
+  // Reads `color` (linear HDR; an invalid handle: the blackboard's scene colour) and writes
+  // `output` (an RGBA8 texture of the frame's size; an invalid handle: a transient named
+  // "<name>.color"); returns the output's new version. `name` names the graph pass.
+  Result<TextureHandle> add(RenderGraph& graph, TextureHandle color, TextureHandle output, const TonemapSettings& settings,
+                            std::string_view name = "tonemap") const;
 
  private:
   struct State;
   std::shared_ptr<State> state_;
 };
+
+// The pass type of tone mapping to the 8-bit image (pass_type.cpp); weft::register_builtins() registers it.
+const pipeline::PassTypeDescriptor& tonemap_pass_type();
 
 }  // namespace weft::passes

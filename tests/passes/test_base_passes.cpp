@@ -120,7 +120,7 @@ Rendered render(const Setup& s, std::span<const frame::DrawItem> items) {
   shadow->add(graph, items, u.light_view_projection);
   REQUIRE(forward->add(graph, items));
   REQUIRE(background->add(graph));
-  auto out = tonemap->add(graph, graph.import_texture("output", &*output, gpu::Access::Undefined),
+  auto out = tonemap->add(graph, {}, graph.import_texture("output", &*output, gpu::Access::Undefined),
                           {.exposure = s.exposure, .tone_operator = passes::ToneOperator::Clamp});
   REQUIRE(out);
   graph.mark_output(*out, gpu::Access::CopySrc);

@@ -7,7 +7,7 @@ import weft.core;
 import weft.builtin_features;
 
 int main(int argc, char** argv) {
-  if (auto ok = weft::register_builtin_features(); !ok) {
+  if (auto ok = weft::register_builtins(); !ok) {
     std::fprintf(stderr, "registering the built-in features: %s\n", ok.error().what().c_str());
     return 1;
   }

@@ -8,15 +8,21 @@
 #include "commands.h"
 import weft.core;
 import weft.builtin_features;
+import weft.pipeline;
 
 int main(int argc, char** argv) {
   // Scene files name these features' material types; `weft tradeoff` sweeps their knobs.
-  if (auto ok = weft::register_builtin_features(); !ok) {
+  if (auto ok = weft::register_builtins(); !ok) {
     std::fprintf(stderr, "weft: %s\n", ok.error().what().c_str());
     return 70;
   }
   CLI::App app{"weft: a render-graph engine over Vulkan"};
   app.require_subcommand(1);
+  std::vector<std::string> plugins;
+  app.add_option("--plugin", plugins,
+                 "Load this plugin (a shared library registering pass types or features; docs/pipelines.md#plugins) "
+                 "before the command runs; repeatable. WEFT_PLUGIN_PATH (':'-separated files and folders) adds more")
+      ->type_name("PATH");
   std::vector<std::pair<CLI::App*, weft::cli::Command>> commands;
   auto add = [&](weft::cli::Command (*make)(CLI::App&)) {
     const std::size_t before = app.get_subcommands({}).size();
@@ -45,6 +51,14 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
+  // Plugins named on the command line must load (the user asked for them); a bad one found on
+  // WEFT_PLUGIN_PATH is a warning and the rest go on.
+  for (const auto& w : weft::pipeline::load_plugins_from_environment()) weft::log::warn(w);
+  for (const auto& path : plugins)
+    if (auto ok = weft::pipeline::load_plugin(path); !ok) {
+      std::fprintf(stderr, "weft: %s\n", ok.error().what().c_str());
+      return 2;
+    }
   for (auto& [sub, run] : commands)
     if (sub->parsed()) {
       try {

@@ -9,6 +9,8 @@
 #include <expected>
 #include <fstream>
 #include <memory>
+#include <optional>
+#include <utility>
 #include <string>
 #include <string_view>
 #include "commands.h"
@@ -18,6 +20,7 @@ import weft.graph;
 import weft.image;
 import weft.scene;
 import weft.renderer;
+import weft.pipeline;
 import weft.governor;
 
 namespace weft::cli {
@@ -27,12 +30,25 @@ struct Common {
   std::string scene_path;
   std::string quality = "medium";
   std::string size;
+  std::string pipeline;
 };
 
-void add_common(CLI::App* sub, Common& c) {
-  sub->add_option("scene", c.scene_path, "Scene file (.json, or a .gltf/.glb)")->required();
+void add_common(CLI::App* sub, Common& c, bool scene_required = true) {
+  auto* scene = sub->add_option("scene", c.scene_path, "Scene file (.json, or a .gltf/.glb)");
+  if (scene_required) scene->required();
   sub->add_option("-q,--quality", c.quality, "low | medium | high | reference")->capture_default_str();
   sub->add_option("-s,--size", c.size, "Output size WxH (default: the scene's)");
+  sub->add_option("--pipeline", c.pipeline,
+                  "Pipeline file: the frame's passes and connections (docs/pipelines.md); default: the scene's "
+                  "\"pipeline\", else weft's default pipeline");
+}
+
+// The --pipeline file, or nothing (the scene's own or the default).
+Result<std::optional<pipeline::Pipeline>> pipeline_from(const Common& c) {
+  if (c.pipeline.empty()) return std::optional<pipeline::Pipeline>{};
+  auto p = pipeline::load_pipeline(c.pipeline);
+  if (!p) return std::unexpected(p.error());
+  return std::optional<pipeline::Pipeline>(std::move(*p));
 }
 
 int fail_with(const char* command, const Error& e) {
@@ -54,6 +70,17 @@ Result<Session> open_session(const char* name) {
   auto device = adapter->request_device();
   if (!device) return std::unexpected(device.error());
   return Session{std::move(*instance), std::move(*adapter), std::move(*device)};
+}
+
+// With the validation layer on (WEFT_VALIDATION=1), any message it reported fails the
+// command: exit 3 after printing them, so scripts and tests can demand a clean frame.
+int validation_failures(const gpu::Instance& instance) {
+  if (!instance.validation_enabled()) return 0;
+  const auto messages = instance.take_validation_messages();
+  if (messages.empty()) return 0;
+  for (const auto& m : messages) std::fprintf(stderr, "validation: %s\n", m.c_str());
+  std::fprintf(stderr, "weft: the validation layer reported %zu message(s)\n", messages.size());
+  return 3;
 }
 
 // Per-pass medians over frames with the same passes (a steady frame, not the first).
@@ -129,6 +156,35 @@ Result<void> save_frame(const std::string& path, OutputKind kind, const renderer
   }
   return {};
 }
+// `--output NAME -o FILE`: one resource of the frame. Float files get its values as they are;
+// PNG/JPEG get a picture (docs/pipelines.md#debug-outputs): 8-bit formats their bytes, float
+// colour clamped to [0, 1] and sRGB-encoded, depth as grey from white (nearest drawn) to dark
+// (farthest drawn) over the drawn texels' range, black where nothing was drawn (depth 1).
+Result<void> save_resource(const std::string& path, OutputKind kind, const renderer::Readback& r) {
+  if (kind == OutputKind::Exr) return image::save_exr(path, r.pixels);
+  if (kind == OutputKind::Hdr) return image::save_hdr(path, r.pixels);
+  const auto& info = gpu::format_info(r.format);
+  const std::size_t n = std::size_t(r.pixels.width) * r.pixels.height;
+  image::Image8 out = image::Image8::filled(r.pixels.width, r.pixels.height, 4);
+  float lo = 1.0f, hi = 0.0f;
+  if (info.depth)
+    for (std::size_t i = 0; i < n; ++i)
+      if (const float d = r.pixels.pixels[i * 4]; d < 1.0f) lo = std::min(lo, d), hi = std::max(hi, d);
+  const bool raw = !info.depth && info.bytes_per_texel == info.components && !info.srgb;  // 8-bit unorm
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 4; ++c) {
+      float v = r.pixels.pixels[i * 4 + c];
+      if (info.depth) {
+        const float d = r.pixels.pixels[i * 4];
+        v = c == 3 ? 1.0f : d >= 1.0f ? 0.0f : hi > lo ? 1.0f - 0.85f * (d - lo) / (hi - lo) : 1.0f;
+      } else if (!raw && c < 3) {
+        v = image::linear_to_srgb(std::clamp(v, 0.0f, 1.0f));
+      }
+      out.pixels[i * 4 + c] = std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f));
+    }
+  return kind == OutputKind::Png ? image::save_png(path, out) : image::save_jpeg(path, out);
+}
+
 // --budget-ms: the governor measures the features' levels, chooses, checks; the chosen frame is saved.
 int render_within_budget(renderer::Renderer& r, const scene::Scene& scene, const renderer::RenderOptions& options,
                          double budget_ms, const std::string& output, OutputKind kind, float exposure) {
@@ -154,12 +210,17 @@ Command add_render(CLI::App& app) {
   auto* sub = app.add_subcommand("render", "Render a scene to an image");
   auto c = std::make_shared<Common>();
   auto output = std::make_shared<std::string>("out.png");
+  auto resource = std::make_shared<std::string>();
   auto profile = std::make_shared<bool>(false);
   auto exposure = std::make_shared<float>(1.0f);
   add_common(sub, *c);
-  sub->add_option("-o,--output", *output,
-                  "Output image: .png or .jpg (tone-mapped), .exr or .hdr (linear float scene colour times the exposure)")
+  sub->add_option("-o,--image", *output,
+                  "Output image: .png or .jpg (tone-mapped), .exr or .hdr (linear float scene colour times the "
+                  "exposure); with --output, that resource")
       ->capture_default_str();
+  sub->add_option("--output", *resource,
+                  "Write this resource of the frame to -o instead of the frame's image: a pass slot (shadow_map.depth, "
+                  "scene.depth, background.color) or any texture's name (weft graph lists them)");
   sub->add_option("--exposure", *exposure, "Exposure multiplier before tone mapping, (0, 1e6]")->capture_default_str();
   auto frames = std::make_shared<unsigned>(1);
   auto serial = std::make_shared<bool>(false);
@@ -180,9 +241,17 @@ Command add_render(CLI::App& app) {
     if (auto problem = exposure_problem(*exposure)) return fail_with("render", Error{ErrorKind::InvalidArgument, *problem});
     options->exposure = *exposure;
     options->serial_passes = *serial;
+    // `--output out.png` (before -o meant the file and --output the resource) keeps working.
+    if (output_kind(*resource) && sub->count("-o") == 0) *output = std::exchange(*resource, std::string());
     const auto kind = output_kind(*output);
     if (!kind) return fail_with("render", kind.error());
-    options->read_hdr = *kind == OutputKind::Exr || *kind == OutputKind::Hdr;
+    if (!resource->empty() && *budget_ms > 0.0)
+      return fail_with("render", Error{ErrorKind::InvalidArgument, "--output and --budget-ms cannot be combined"});
+    if (!resource->empty()) options->outputs.push_back(*resource);
+    else options->read_hdr = *kind == OutputKind::Exr || *kind == OutputKind::Hdr;
+    auto pipeline = pipeline_from(*c);
+    if (!pipeline) return fail_with("render", pipeline.error());
+    if (*pipeline) options->pipeline = &**pipeline;
     const auto t0 = std::chrono::steady_clock::now();
     log::info(weft::format("loading {}", c->scene_path));
     auto scene = scene::load_scene(c->scene_path);
@@ -207,7 +276,11 @@ Command add_render(CLI::App& app) {
     std::sort(render_ms.begin(), render_ms.end());
     if (!later.empty()) frame->stats = median_stats(later);
     for (const auto& w : frame->warnings) log::warn(w);
-    if (auto ok = save_frame(*output, *kind, *frame, *exposure); !ok) return fail_with("render", ok.error());
+    if (!resource->empty()) {
+      if (auto ok = save_resource(*output, *kind, frame->outputs.front()); !ok) return fail_with("render", ok.error());
+    } else if (auto ok = save_frame(*output, *kind, *frame, *exposure); !ok) {
+      return fail_with("render", ok.error());
+    }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (*profile) {
       if (!later.empty()) std::printf("median of frames 2..%u:\n", *frames);
@@ -219,44 +292,88 @@ Command add_render(CLI::App& app) {
         std::printf("whole frame (render call: prepare, graph, execute, readback): median %.2f ms, min %.2f ms\n",
                     render_ms[render_ms.size() / 2], render_ms.front());
     }
-    std::printf("wrote %s (%ux%u) in %.2f s\n", output->c_str(), frame->image.width, frame->image.height, seconds);
+    const auto& written = resource->empty() ? frame->image.width : frame->outputs.front().pixels.width;
+    const auto& written_h = resource->empty() ? frame->image.height : frame->outputs.front().pixels.height;
+    if (auto bad = validation_failures(session->instance)) return bad;
+    std::printf("wrote %s%s%s (%ux%u) in %.2f s\n", resource->empty() ? "" : (resource->c_str()), resource->empty() ? "" : " to ",
+                output->c_str(), written, written_h, seconds);
     return 0;
   };
 }
 
 Command add_graph(CLI::App& app) {
-  auto* sub = app.add_subcommand("graph", "Compile a scene's render graph and print or save it");
+  auto* sub = app.add_subcommand("graph", "Compile a scene's render graph and print or save it; `graph check` validates a frame");
   auto c = std::make_shared<Common>();
   auto dot = std::make_shared<std::string>();
+  auto export_pipeline = std::make_shared<std::string>();
   auto dump = std::make_shared<bool>(false);
-  add_common(sub, *c);
+  auto pass_types = std::make_shared<bool>(false);
+  add_common(sub, *c, false);
   sub->add_option("--dot", *dot, "Write Graphviz DOT here ('-' for stdout)");
+  sub->add_option("--export-pipeline", *export_pipeline, "Write the pipeline the scene renders with here ('-' for stdout)");
   sub->add_flag("--dump", *dump, "Print order, lifetimes, memory and barriers");
-  return [=] {
-    auto options = options_from(*c);
-    if (!options) return fail_with("graph", options.error());
-    auto scene = scene::load_scene(c->scene_path);
-    if (!scene) return fail_with("graph", scene.error());
-    auto session = open_session("weft-graph");
-    if (!session) return fail_with("graph", session.error());
+  sub->add_flag("--pass-types", *pass_types, "Print every registered pass type (slots, options) as Markdown, and exit");
+  auto* check = sub->add_subcommand("check", "Exit 0 when the scene's frame (with --pipeline P) compiles; otherwise "
+                                             "print every problem and exit 1");
+  auto cc = std::make_shared<Common>();
+  add_common(check, *cc);
+  auto describe = [](const Common& common, const char* what) -> Result<renderer::GraphReport> {
+    auto options = options_from(common);
+    if (!options) return std::unexpected(options.error());
+    auto pipeline = pipeline_from(common);
+    if (!pipeline) return std::unexpected(pipeline.error());
+    if (*pipeline) options->pipeline = &**pipeline;
+    auto scene = scene::load_scene(common.scene_path);
+    if (!scene) return std::unexpected(scene.error());
+    auto session = open_session(what);
+    if (!session) return std::unexpected(session.error());
     auto r = renderer::Renderer::create(session->device);
-    if (!r) return fail_with("graph", r.error());
-    auto report = r->describe(*scene, *options);
-    if (!report) return fail_with("graph", report.error());
-    if (*dot == "-") {
-      std::printf("%s", report->dot.c_str());
-    } else if (!dot->empty()) {
-      std::ofstream out(*dot);
-      out << report->dot;
-      if (!out) return fail_with("graph", Error{ErrorKind::Io, weft::format("cannot write '{}'", *dot)});
-      std::printf("wrote %s\n", dot->c_str());
+    if (!r) return std::unexpected(r.error());
+    return r->describe(*scene, *options);
+  };
+  return [=] {
+    if (check->parsed()) {
+      auto report = describe(*cc, "weft-graph-check");
+      if (!report) return fail_with("graph check", report.error());
+      for (const auto& w : report->warnings) std::printf("warning: %s\n", w.c_str());
+      std::printf("ok: %zu passes run, %zu culled\n", report->passes.size(), report->culled_passes.size());
+      return 0;
     }
+    if (*pass_types) {
+      std::printf("%s", pipeline::pass_types_markdown().c_str());
+      return 0;
+    }
+    if (c->scene_path.empty())
+      return fail_with("graph", Error{ErrorKind::InvalidArgument, "a scene file is required (weft graph SCENE ...)"});
+    auto report = describe(*c, "weft-graph");
+    if (!report) return fail_with("graph", report.error());
+    const auto write = [](const std::string& path, const std::string& text) -> Result<void> {
+      if (path == "-") {
+        std::printf("%s", text.c_str());
+        return {};
+      }
+      std::ofstream out(path);
+      out << text;
+      if (!out) return fail(ErrorKind::Io, "cannot write '{}'", path);
+      std::printf("wrote %s\n", path.c_str());
+      return {};
+    };
+    if (!dot->empty())
+      if (auto ok = write(*dot, report->dot); !ok) return fail_with("graph", ok.error());
+    if (!export_pipeline->empty())
+      if (auto ok = write(*export_pipeline, report->pipeline); !ok) return fail_with("graph", ok.error());
     if (*dump) std::printf("%s", report->dump.c_str());
+    for (const auto& w : report->warnings) std::printf("warning: %s\n", w.c_str());
     std::printf("passes:");
     for (const auto& p : report->passes) std::printf(" %s", p.c_str());
     std::printf("\nculled:");
     for (const auto& p : report->culled_passes) std::printf(" %s", p.c_str());
     std::printf("%s\n", report->culled_passes.empty() ? " (none)" : "");
+    std::printf("slots:");
+    for (const auto& p : report->slots) std::printf(" %s", p.c_str());
+    std::printf("\nresources:");
+    for (const auto& p : report->resources) std::printf(" %s", p.c_str());
+    std::printf("\n");
     return 0;
   };
 }

@@ -1,0 +1,57 @@
+// Full-screen passes: one pipeline shape and one draw call shared by every post-process.
+module;
+#include <cstddef>
+#include <cstdint>
+#include <expected>
+#include <span>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+#include <weft/try.h>
+module weft.frame;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+
+namespace weft::frame {
+
+Result<FullscreenPipeline> create_fullscreen_pipeline(gpu::Device& device, std::string label,
+                                                      std::span<const std::uint32_t> fragment_spirv,
+                                                      std::uint32_t textures, bool uniforms, std::uint32_t push_size,
+                                                      gpu::Format target) {
+  WEFT_TRY(auto vs, device.create_shader_module({.label = "fullscreen.vert", .stage = gpu::ShaderStage::Vertex,
+                                                 .spirv = fullscreen_vertex_spirv()}));
+  WEFT_TRY(auto fs, device.create_shader_module({.label = label + ".frag", .stage = gpu::ShaderStage::Fragment,
+                                                 .spirv = fragment_spirv}));
+  std::vector<gpu::BindGroupLayoutEntry> entries;
+  for (std::uint32_t i = 0; i < textures; ++i) entries.push_back({i, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment});
+  if (uniforms) entries.push_back({textures, gpu::BindingType::UniformBuffer, gpu::ShaderStage::Fragment});
+  WEFT_TRY(auto bind_layout, device.create_bind_group_layout({.label = label, .entries = std::move(entries)}));
+  WEFT_TRY(auto layout, device.create_pipeline_layout(
+                            {.label = label, .bind_group_layouts = {&bind_layout}, .push_constant_size = push_size}));
+  WEFT_TRY(auto pipeline, device.create_render_pipeline({.label = label, .layout = &layout, .vertex = &vs, .fragment = &fs,
+                                                          .color_targets = {{target}}}));
+  return FullscreenPipeline{std::move(bind_layout), std::move(layout), std::move(pipeline), textures, uniforms};
+}
+
+void draw_fullscreen(PassContext& context, const FullscreenPipeline& pipeline, std::string_view label,
+                     const gpu::TextureView& target, std::span<const gpu::TextureView* const> textures,
+                     const gpu::Sampler& sampler, const gpu::Buffer* uniforms, std::span<const std::byte> push) {
+  std::vector<gpu::BindGroupEntry> entries;
+  for (std::uint32_t i = 0; i < textures.size(); ++i) entries.push_back(gpu::bind(i, *textures[i], &sampler));
+  if (uniforms) entries.push_back(gpu::bind(std::uint32_t(textures.size()), *uniforms));
+  auto group = context.device().create_bind_group(
+      {.label = std::string(label), .layout = &pipeline.bind_layout, .entries = std::move(entries)});
+  if (!group) return context.encoder().report_error(group.error());
+  const auto& kept = context.keep(std::move(*group));  // alive until the frame is done
+  auto pass = context.encoder().begin_render_pass(
+      {.label = std::string(label), .color_attachments = {{.view = &target, .load = gpu::LoadOp::DontCare}}});
+  pass.set_pipeline(pipeline.pipeline);
+  pass.set_bind_group(0, kept);
+  if (!push.empty()) pass.set_push_constants(push);
+  pass.draw(3);
+  pass.end();
+}
+
+}  // namespace weft::frame

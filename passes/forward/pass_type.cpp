@@ -1,0 +1,87 @@
+// The scene_color pass type: the scene-colour stage. The forward pass draws the standard
+// materials into new colour and depth targets, then every feature the scene's materials use
+// draws into them (PassFrame::add_feature_passes), so features stay material-driven whatever
+// the pipeline around them.
+module;
+#include <cstdint>
+#include <expected>
+#include <memory>
+#include <optional>
+#include <span>
+#include <weft/try.h>
+module weft.base_pass.forward;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+import weft.pipeline;
+
+namespace weft::passes {
+namespace {
+
+class SceneColorFramePass final : public pipeline::FramePass {
+ public:
+  explicit SceneColorFramePass(vec4 clear) : clear_(clear) {}
+
+  Result<void> prepare(gpu::Device& device, const pipeline::PassFrame&) override {
+    if (!forward_) {
+      WEFT_TRY(auto pass, ForwardPass::create(device));
+      forward_.emplace(std::move(pass));
+    }
+    if (!no_shadow_) {
+      // 1x1 at the far plane: what the lit passes sample when the frame has no shadow map.
+      WEFT_TRY(auto t, device.create_texture({.label = "no_shadow", .size = {1, 1, 1}, .format = gpu::Format::Depth32Float,
+                                              .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst}));
+      const float far_depth = 1.0f;
+      WEFT_TRY_VOID(device.queue().write_texture(t, std::as_bytes(std::span(&far_depth, 1))));
+      no_shadow_.emplace(std::move(t));
+    }
+    return {};
+  }
+
+  Result<void> add(RenderGraph& graph, const pipeline::PassFrame& frame, pipeline::PassSlots& slots) override {
+    if (!forward_ || !no_shadow_) return fail(ErrorKind::Internal, "pass '{}': add() before prepare()", slots.pass_name());
+    auto& board = graph.blackboard();
+    TextureHandle shadow = slots.input("shadow_map");
+    if (!shadow) shadow = graph.import_texture("no_shadow", &*no_shadow_, gpu::Access::ShaderRead);
+    frame::put_scene_targets(board, {.shadow_map = shadow});
+    WEFT_TRY_VOID(forward_->add(graph, frame.items, clear_));
+    if (frame.add_feature_passes) WEFT_TRY_VOID(frame.add_feature_passes(graph));
+    WEFT_TRY(const frame::SceneTargets targets, frame::scene_targets(board, {.environment = false}));
+    slots.set_output("color", targets.color);
+    slots.set_output("depth", targets.depth);
+    return {};
+  }
+
+ private:
+  vec4 clear_;
+  std::optional<ForwardPass> forward_;
+  std::optional<gpu::Texture> no_shadow_;
+};
+
+Result<std::unique_ptr<pipeline::FramePass>> create(const pipeline::PassOptions& options) {
+  const float v = float(options.number("clear"));
+  return std::make_unique<SceneColorFramePass>(vec4(v, v, v, 1.0f));
+}
+
+}  // namespace
+
+const pipeline::PassTypeDescriptor& scene_color_pass_type() {
+  static const pipeline::PassTypeDescriptor d{
+      .name = "scene_color",
+      .summary = "The scene-colour stage: standard (PBR) materials drawn forward, then every feature the scene's "
+                 "materials use (fur, skin, SSDF, neural BTF, a plugin's), into one HDR colour and depth.",
+      .doc = "docs/pipelines.md#scene_color",
+      .inputs = {{.name = "shadow_map", .formats = {gpu::Format::Depth32Float}, .size = pipeline::SlotSize::Any,
+                  .optional = true, .meaning = "the key light's depth; unconnected: unshadowed"}},
+      .outputs = {{.name = "color", .formats = {frame::scene_color_format}, .meaning = "linear HDR radiance"},
+                  {.name = "depth", .formats = {frame::scene_depth_format}, .meaning = "the camera's depth (0 near, 1 far)"}},
+      .options = {pipeline::number_option("clear", 0.0, 1e6, 0.0,
+                                          "grey level the colour is cleared to before drawing (the background "
+                                          "pass covers it where the environment shows)")},
+      .create = &create,
+  };
+  return d;
+}
+
+}  // namespace weft::passes
