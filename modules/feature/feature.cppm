@@ -17,6 +17,10 @@ module;
 #include <utility>
 #include <vector>
 #include <nlohmann/json.hpp>
+// A bake adds its options to a CLI11 command; only the name is needed here.
+namespace CLI {
+class App;
+}
 export module weft.feature;
 import weft.core;
 import weft.gpu;
@@ -149,6 +153,16 @@ std::string_view to_string(CostAxis axis);
 
 // ---- the descriptor and the registry --------------------------------------------------------
 
+// An offline precompute a feature offers as `weft bake <name>` (a LUT, a baked visibility, a
+// trained model): `add` gives the CLI11 command weft made for it its options and returns what
+// runs it (the exit code). `weft bake` lists the bakes of every registered feature -- plugins'
+// too -- so a feature with a bake edits nothing under tools/.
+struct BakeCommand {
+  std::string name;     // "skin-lut"
+  std::string summary;  // one line for `weft bake --help`
+  std::function<int()> (*add)(CLI::App& command) = nullptr;
+};
+
 // Everything weft knows about a feature: one per feature module, registered by the application.
 struct FeatureDescriptor {
   // The feature's one name: its folder under passes/, its material type in scene files, its
@@ -175,6 +189,7 @@ struct FeatureDescriptor {
   // Environment variables set while a study runs (e.g. a bake cache switched off).
   std::vector<std::pair<std::string, std::string>> environment;
   void (*clear_caches)() = nullptr;    // drops process-wide caches so a bake is timed cold
+  std::vector<BakeCommand> bakes;      // `weft bake <name>` commands
 };
 
 // The features of this process. Registration is explicit (an application registers what it

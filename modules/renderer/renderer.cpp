@@ -120,14 +120,15 @@ struct Renderer::State {
 Result<const pipeline::Pipeline*> Renderer::State::choose_pipeline(const scene::Scene& scene,
                                                                    const RenderOptions& options) {
   if (options.pipeline) return options.pipeline;
-  if (!scene.pipeline.empty()) {
+  const std::filesystem::path& file = options.pipeline_file.empty() ? scene.pipeline : options.pipeline_file;
+  if (!file.empty()) {
     std::error_code ec;
-    const auto mtime = std::filesystem::last_write_time(scene.pipeline, ec);
-    auto it = pipeline_files.find(scene.pipeline);
+    const auto mtime = std::filesystem::last_write_time(file, ec);
+    auto it = pipeline_files.find(file);
     if (it == pipeline_files.end() || ec || it->second.mtime != mtime) {
-      auto loaded = pipeline::load_pipeline(scene.pipeline);
+      auto loaded = pipeline::load_pipeline(file);
       if (!loaded) return std::unexpected(loaded.error());
-      it = pipeline_files.insert_or_assign(scene.pipeline, LoadedPipeline{mtime, std::move(*loaded)}).first;
+      it = pipeline_files.insert_or_assign(file, LoadedPipeline{mtime, std::move(*loaded)}).first;
     }
     return &it->second.pipeline;
   }
@@ -411,7 +412,16 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
     if (auto ok = feature->prepare(feature_frame(scene, type, options, w, h)); !ok) return ok;
     for (auto& message : feature->warnings()) warnings.push_back(std::move(message));
   }
-  if (!output || output->size().width != w || output->size().height != h) {
+  if (options.target) {
+    // The caller's texture (the viewer's presentable target): the frame's image goes there,
+    // and nothing is read back.
+    const auto& t = *options.target;
+    if (t.size().width != w || t.size().height != h || t.format() != gpu::Format::RGBA8Unorm ||
+        !gpu::has(t.usage(), gpu::TextureUsage::ColorAttachment))
+      return fail(ErrorKind::InvalidArgument, "render target '{}' is {}x{} {} ({}); the frame needs {}x{} rgba8unorm with "
+                  "color-attachment usage", t.label(), t.size().width, t.size().height, gpu::to_string(t.format()),
+                  gpu::to_string(t.usage()), w, h);
+  } else if (!output || output->size().width != w || output->size().height != h) {
     output.reset();
     auto t = device->create_texture({.label = "output", .size = {w, h, 1}, .format = gpu::Format::RGBA8Unorm,
                                      .usage = gpu::TextureUsage::ColorAttachment | gpu::TextureUsage::CopySrc});
@@ -512,7 +522,9 @@ Result<RenderGraph*> Renderer::State::build_graph(const scene::Scene& scene, con
                     in.name, from->text());
       inputs.push_back({in.name, handle});
     }
-    if (p.name == image.pass) targets.push_back({image.slot, graph.import_texture("output", &*output, gpu::Access::Undefined)});
+    if (p.name == image.pass)
+      targets.push_back({image.slot, graph.import_texture("output", options.target ? options.target : &*output,
+                                                          gpu::Access::Undefined)});
     pipeline::PassSlots slots(p.name, std::move(inputs), std::move(targets));
     if (auto ok = instances.at(p.name).pass->add(graph, frame, slots); !ok)
       return with_context(weft::format("{}: pass '{}' ({})", pipeline.source, p.name, p.type->name), ok.error());
@@ -545,7 +557,7 @@ Result<RenderGraph*> Renderer::State::build_graph(const scene::Scene& scene, con
   }
   const TextureHandle out = produced[image.text()];
   if (!out) return fail(ErrorKind::Graph, "{}: the frame's image '{}' was not produced", pipeline.source, image.text());
-  graph.mark_output(out, gpu::Access::CopySrc);
+  graph.mark_output(out, options.target ? options.target_final_state : gpu::Access::CopySrc);
   for (std::size_t i = 1; i < pipeline.outputs.size(); ++i)
     if (const TextureHandle extra = produced[pipeline.outputs[i].text()]) graph.mark_output(extra);
   return &graph;
@@ -656,6 +668,29 @@ image::Image to_float_rgba(const std::vector<std::byte>& bytes, gpu::Format form
 }
 }  // namespace
 
+image::Image8 picture(const Readback& r) {
+  const auto& info = gpu::format_info(r.format);
+  const std::size_t n = std::size_t(r.pixels.width) * r.pixels.height;
+  image::Image8 out = image::Image8::filled(r.pixels.width, r.pixels.height, 4);
+  float lo = 1.0f, hi = 0.0f;
+  if (info.depth)
+    for (std::size_t i = 0; i < n; ++i)
+      if (const float d = r.pixels.pixels[i * 4]; d < 1.0f) lo = std::min(lo, d), hi = std::max(hi, d);
+  const bool raw = !info.depth && info.bytes_per_texel == info.components && !info.srgb;  // 8-bit unorm
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 4; ++c) {
+      float v = r.pixels.pixels[i * 4 + c];
+      if (info.depth) {
+        const float d = r.pixels.pixels[i * 4];
+        v = c == 3 ? 1.0f : d >= 1.0f ? 0.0f : hi > lo ? 1.0f - 0.85f * (d - lo) / (hi - lo) : 1.0f;
+      } else if (!raw && c < 3) {
+        v = image::linear_to_srgb(std::clamp(v, 0.0f, 1.0f));
+      }
+      out.pixels[i * 4 + c] = std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f));
+    }
+  return out;
+}
+
 Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& options) {
   auto size = frame_size(scene, options);
   if (!size) return std::unexpected(size.error());
@@ -675,11 +710,13 @@ Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& o
   ++(compiled->plan_reused() ? s.stats.graph_plans_reused : s.stats.graph_plans);
   auto stats = compiled->execute(*s.device, {.timestamps = options.timestamps, .serial_passes = options.serial_passes});
   if (!stats) return std::unexpected(stats.error());
-  auto pixels = s.device->queue().read_texture(*s.output);
-  if (!pixels) return std::unexpected(pixels.error());
   Frame frame;
-  frame.image = image::Image8::filled(w, h, 4);
-  std::memcpy(frame.image.pixels.data(), pixels->data(), frame.image.pixels.size());
+  if (!options.target) {
+    auto pixels = s.device->queue().read_texture(*s.output);
+    if (!pixels) return std::unexpected(pixels.error());
+    frame.image = image::Image8::filled(w, h, 4);
+    std::memcpy(frame.image.pixels.data(), pixels->data(), frame.image.pixels.size());
+  }
   for (const auto& r : s.readbacks) {
     auto bytes = s.device->queue().read_buffer(*r.buffer);
     if (!bytes) return std::unexpected(bytes.error());

@@ -8,6 +8,7 @@
 module;
 #include <cstdint>
 #include <expected>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -41,6 +42,14 @@ struct RenderOptions {
   // The frame to render; null: the scene's "pipeline" file, or the default pipeline. Must
   // outlive the call.
   const pipeline::Pipeline* pipeline = nullptr;
+  // Or a pipeline file, read again whenever it changes on disk (the viewer's hot reload);
+  // it takes precedence over the scene's "pipeline". Ignored when `pipeline` is set.
+  std::filesystem::path pipeline_file;
+  // Render the frame's image into this texture of the caller's (same device; the frame's size,
+  // rgba8unorm, color-attachment usage) and read nothing back: Frame::image stays empty. It is
+  // left in `target_final_state` for what the caller does next (sampling it, a blit, a copy).
+  const gpu::Texture* target = nullptr;
+  gpu::Access target_final_state = gpu::Access::ShaderRead;
   // Resources to read back into Frame::outputs: a pass's output slot ("background.color",
   // "scene.depth") or the name of any texture of the compiled frame ("ssdf_visibility").
   std::vector<std::string> outputs;
@@ -55,13 +64,19 @@ struct Readback {
 };
 
 struct Frame {
-  image::Image8 image;        // RGBA, sRGB-encoded
+  image::Image8 image;        // RGBA, sRGB-encoded (empty when RenderOptions::target took it)
   image::Image hdr;           // RGBA linear scene colour before the tone curve (RenderOptions::read_hdr)
   FrameStats stats;           // per-pass GPU and CPU times, transient memory
   std::vector<std::string> passes;  // the passes that ran, in order
   std::vector<std::string> warnings;
   std::vector<Readback> outputs;  // RenderOptions::outputs, in that order
 };
+
+// A picture of a read-back resource for a PNG or the viewer (docs/pipelines.md#any-resource-in-a-file):
+// 8-bit formats keep their bytes; float colour is clamped to [0, 1] and sRGB-encoded; depth
+// is grey from white (the nearest texel drawn) to dark grey (the farthest drawn), black where
+// nothing was drawn (depth 1). RGBA, sRGB-encoded.
+image::Image8 picture(const Readback& resource);
 
 // The compiled graph of a scene without executing it: for `weft graph` and tests.
 struct GraphReport {

@@ -33,7 +33,7 @@ struct CombinePush {
 
 struct BloomGpu {
   frame::FullscreenPipeline down, up, combine;
-  gpu::Sampler sampler;  // linear, clamped: the taps past the edge repeat the edge
+  gpu::Sampler sampler;  // linear, mirrored at the edges (see prepare)
 };
 
 class BloomFramePass final : public pipeline::FramePass {
@@ -50,7 +50,10 @@ class BloomFramePass final : public pipeline::FramePass {
                                                        sizeof(UpPush), format));
     WEFT_TRY(auto combine, frame::create_fullscreen_pipeline(device, "bloom_combine", shaders::bloom_combine_frag(), 2,
                                                             false, sizeof(CombinePush), format));
-    WEFT_TRY(auto sampler, device.create_sampler({.label = "bloom", .address_mode = gpu::AddressMode::ClampToEdge, .max_lod = 0}));
+    // Mirrored at the edges: a tap past the border reads the texel it mirrors, so the chain
+    // loses less of the frame's energy at the borders than clamping, which counts the edge
+    // texels twice (tests/renderer/test_pipeline_render.cpp measures what is left).
+    WEFT_TRY(auto sampler, device.create_sampler({.label = "bloom", .address_mode = gpu::AddressMode::MirrorRepeat, .max_lod = 0}));
     gpu_ = std::make_shared<BloomGpu>(BloomGpu{std::move(down), std::move(up), std::move(combine), std::move(sampler)});
     return {};
   }

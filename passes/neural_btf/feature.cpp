@@ -186,6 +186,7 @@ const FeatureDescriptor& neural_btf_feature() {
                         "ambient and shadow: the same pass with the data in place of the decoder",
       .cost = CostAxis::Frame,
       .grids = {{"filter", "ambient"}},
+      .bakes = {{.name = "btf", .summary = "Train a neural BTF (encoder + decoder, optionally clustered): a .wbtf file", .add = &detail::add_btf_bake}},
   };
   return feature;
 }

@@ -18,6 +18,7 @@
 //  - fragment: the decoder in the fragment shader (overdraw decodes too). Debug views use it.
 // docs/neural-btf.md, "The batched decode", has the measurements.
 module;
+#include <functional>
 #include <cstddef>
 #include <cstdint>
 #include <expected>
@@ -28,6 +29,9 @@ module;
 #include <string>
 #include <string_view>
 #include <vector>
+namespace CLI {
+class App;  // what a bake command adds its options to
+}
 export module weft.pass.neural_btf;
 import weft.core;
 import weft.gpu;
@@ -216,3 +220,8 @@ class NeuralBTFMaterial {
 const FeatureDescriptor& neural_btf_feature();
 
 }  // namespace weft::passes
+
+// The feature's `weft bake btf` command (its descriptor's `bakes`); not exported.
+namespace weft::passes::detail {
+std::function<int()> add_btf_bake(CLI::App& command);
+}  // namespace weft::passes::detail

@@ -226,6 +226,7 @@ const FeatureDescriptor& skin_sss_feature() {
       .cost = CostAxis::ColdFrame,
       .environment = {{"WEFT_SKIN_LUT_CACHE", ""}},
       .clear_caches = &skin::clear_lut_memory_cache,
+      .bakes = {{.name = "skin-lut", .summary = "The pre-integrated skin LUT: RGB diffuse over (N·L, 1/r), alpha Beckmann", .add = &detail::add_skin_lut_bake}},
   };
   return feature;
 }

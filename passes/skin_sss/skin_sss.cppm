@@ -18,6 +18,7 @@
 //   with bilinear filtering and clamp-to-edge the end points hit texel centres.
 // Memory row 0 is the first row of the texture and the top row of a saved image.
 module;
+#include <functional>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -29,6 +30,9 @@ module;
 #include <string_view>
 #include <vector>
 #include <glm/glm.hpp>
+namespace CLI {
+class App;  // what a bake command adds its options to
+}
 export module weft.pass.skin_sss;
 import weft.core;
 import weft.gpu;
@@ -302,3 +306,8 @@ class SkinSSSPass {
 const FeatureDescriptor& skin_sss_feature();
 
 }  // namespace weft::passes
+
+// The feature's `weft bake skin-lut` command (its descriptor's `bakes`); not exported.
+namespace weft::passes::detail {
+std::function<int()> add_skin_lut_bake(CLI::App& command);
+}  // namespace weft::passes::detail

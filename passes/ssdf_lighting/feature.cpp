@@ -175,6 +175,7 @@ const FeatureDescriptor& ssdf_lighting_feature() {
                         "fit and the visibility model remain",
       .cost = CostAxis::Frame,
       .grids = {{"lobes", "shading"}},
+      .bakes = {{.name = "ssdf", .summary = "Per-vertex SSDF visibility (Embree), compressed by clustered PCA: a .wssdf file", .add = &detail::add_ssdf_bake}},
   };
   return feature;
 }

@@ -8,6 +8,7 @@
 // (a few taps of m components each, independent of the direction resolution) and shade per
 // vertex or per pixel.
 module;
+#include <functional>
 #include <cstdint>
 #include <expected>
 #include <filesystem>
@@ -16,6 +17,9 @@ module;
 #include <string>
 #include <string_view>
 #include <vector>
+namespace CLI {
+class App;  // what a bake command adds its options to
+}
 export module weft.pass.ssdf_lighting;
 import weft.core;
 import weft.gpu;
@@ -122,3 +126,8 @@ class SSDFLightingPass {
 const FeatureDescriptor& ssdf_lighting_feature();
 
 }  // namespace weft::passes
+
+// The feature's `weft bake ssdf` command (its descriptor's `bakes`); not exported.
+namespace weft::passes::detail {
+std::function<int()> add_ssdf_bake(CLI::App& command);
+}  // namespace weft::passes::detail

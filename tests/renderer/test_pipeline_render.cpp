@@ -7,10 +7,12 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
+#include <unistd.h>
 import weft.core;
 import weft.gpu;
 import weft.image;
@@ -35,7 +37,7 @@ const char* lit_scene = R"({
   "lights": [{"type": "directional", "direction": [-0.4, -1, -0.3], "intensity": 3}],
   "meshes": {"ball": {"primitive": "sphere", "radius": 0.7}, "floor": {"primitive": "plane", "size": 6}},
   "materials": {"white": {"type": "standard", "base_color": [0.8, 0.8, 0.8]}},
-  "objects": [{"name": "ball", "mesh": "ball", "material": "white", "translation": [0, 0.7, 0]},
+  "objects": [{"name": "ball", "mesh": "ball", "material": "white", "transform": {"translation": [0, 0.7, 0]}},
               {"name": "floor", "mesh": "floor", "material": "white"}]
 })";
 
@@ -162,11 +164,15 @@ TEST_CASE("bloom keeps the frame's energy; intensity 0 changes nothing") {
     const double after = rgb_sum(output(*f, "bloom.color").pixels);
     REQUIRE(before > 100.0);
     MESSAGE("energy after / before: " << after / before);
-    CHECK(std::abs(after / before - 1.0) < 0.01);
-    // Spread out: the bright square's peak fell.
+    // Measured: 0.9978 (six levels, down to 2x2, where the edges are everything) and 0.9988
+    // (three); the bound leaves room for other drivers' filtering.
+    CHECK(std::abs(after / before - 1.0) < 0.005);
+    // Spread out: the bright square's peak fell (to less than half with the widest chain).
     const auto& a = output(*f, "bloom.color").pixels;
     const auto& b = output(*f, "background.color").pixels;
-    CHECK(*std::max_element(a.pixels.begin(), a.pixels.end()) < 0.5f * *std::max_element(b.pixels.begin(), b.pixels.end()));
+    const float peak_after = *std::max_element(a.pixels.begin(), a.pixels.end());
+    const float peak_before = *std::max_element(b.pixels.begin(), b.pixels.end());
+    CHECK(peak_after < (std::string(options).find("levels") == std::string::npos ? 0.5f : 0.9f) * peak_before);
   }
   auto none = parse(bloom_pipeline(R"({"intensity": 0})"));
   auto f = shared_renderer().render(s, {.pipeline = &none, .outputs = {"background.color", "bloom.color"}});
@@ -228,5 +234,29 @@ TEST_CASE("the depth debug view shows the distance: white at near, black at far,
   // The square's centre is at distance 3: halfway from white to black; sRGB-free grey (unorm).
   CHECK(std::abs(at(64, 64) - 128) <= 2);
   CHECK(at(2, 2) == 0);  // nothing drawn
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("a frame rendered into the caller's texture is the frame read back, with no readback of its own") {
+  auto s = load(lit_scene);
+  auto& device = weft::test::gpu().device;
+  auto read_back = shared_renderer().render(s);
+  REQUIRE(read_back);
+  auto target = device.create_texture({.label = "caller target", .size = {96, 64, 1}, .format = gpu::Format::RGBA8Unorm,
+                                       .usage = gpu::TextureUsage::ColorAttachment | gpu::TextureUsage::CopySrc});
+  REQUIRE(target);
+  auto direct = shared_renderer().render(s, {.target = &*target, .target_final_state = gpu::Access::CopySrc});
+  REQUIRE_MESSAGE(direct, (direct ? "" : direct.error().message));
+  CHECK(direct->image.pixels.empty());
+  auto bytes = device.queue().read_texture(*target);
+  REQUIRE(bytes);
+  REQUIRE(bytes->size() == read_back->image.pixels.size());
+  CHECK(std::memcmp(bytes->data(), read_back->image.pixels.data(), bytes->size()) == 0);
+  auto small = device.create_texture({.label = "small target", .size = {32, 32, 1}, .format = gpu::Format::RGBA8Unorm,
+                                      .usage = gpu::TextureUsage::ColorAttachment});
+  REQUIRE(small);
+  auto refused = shared_renderer().render(s, {.target = &*small});
+  REQUIRE(!refused);
+  CHECK(refused.error().message.find("render target 'small target' is 32x32") != std::string::npos);
   weft::test::expect_no_validation_messages();
 }

@@ -310,3 +310,44 @@ TEST_CASE("shader hot reload: an edited tone map shows, a shader that does not c
   // The original again: the first image.
   CHECK(difference(shot("s_a.png"), shot("s_d.png")).max <= 1);
 }
+
+TEST_CASE("a pipeline file reloads live (a bad edit keeps the frame), and any resource shows in the window") {
+  require_display();
+  const fs::path live = scratch() / "frame_pipeline.json";
+  const fs::path source = WEFT_SOURCE_DIR;
+  write(scratch() / "pipeline_scene.json", ball_scene("[0.8, 0.1, 0.05]"));
+  fs::copy_file(source / "assets/pipelines/default.json", live, fs::copy_options::overwrite_existing);
+  write(scratch() / "cycle.json", R"({"passes": {"a": {"type": "tonemap"}}, "connections": ["a.color -> a.color"],
+                                     "outputs": ["a.color"]})");
+  auto shot = [&](const char* name) { return (scratch() / name).string(); };
+  const std::string normals = (source / "examples/pipelines/debug_normals.json").string();
+  write(scratch() / "pipeline.txt",
+        "ui off\nrefine\nscreenshot " + shot("p_default.png") + "\n" +
+        "copy " + normals + " " + live.string() + "\nwait 3\nrefine\nscreenshot " + shot("p_normals.png") + "\n" +
+        "copy " + shot("cycle.json") + " " + live.string() + "\nwait 3\nrefine\nscreenshot " + shot("p_broken.png") + "\n" +
+        "copy " + (source / "assets/pipelines/default.json").string() + " " + live.string() +
+        "\nwait 3\nrefine\nscreenshot " + shot("p_back.png") + "\n" +
+        "show scene.depth\nwait 2\nrefine\nscreenshot " + shot("p_depth.png") + "\n" +
+        "show frame\nwait 2\nrefine\nscreenshot " + shot("p_frame.png") + "\nquit\n");
+  auto r = run(weft_cli() + " view " + (scratch() / "pipeline_scene.json").string() + " --pipeline " + live.string() +
+               " --size 160x120 --script " + (scratch() / "pipeline.txt").string());
+  INFO(r.output);
+  REQUIRE(r.code == 0);
+  CHECK(r.output.find("6 screenshot(s)") != std::string::npos);
+  // The normals view is another picture: the sky turns black, the ball's centre faces the camera.
+  CHECK(difference(shot("p_default.png"), shot("p_normals.png")).mean > 20.0);
+  // The cycle is the frame's error, naming the file; the last good image stays.
+  CHECK(r.output.find(live.string()) != std::string::npos);
+  CHECK(r.output.find("feed each other in a cycle") != std::string::npos);
+  CHECK(difference(shot("p_normals.png"), shot("p_broken.png")).max == 0);
+  // Back to the default pipeline: the first image again.
+  CHECK(difference(shot("p_default.png"), shot("p_back.png")).max <= 1);
+  // The depth shows as grey: the ball (nearest) light, every channel equal.
+  auto depth = weft::image::load_png(shot("p_depth.png"));
+  REQUIRE(depth);
+  const std::size_t centre = (std::size_t(depth->height / 2) * depth->width + depth->width / 2) * depth->channels;
+  CHECK(depth->pixels[centre] > 150);
+  CHECK(depth->pixels[centre] == depth->pixels[centre + 1]);
+  CHECK(depth->pixels[centre] == depth->pixels[centre + 2]);
+  CHECK(difference(shot("p_default.png"), shot("p_frame.png")).max <= 1);
+}

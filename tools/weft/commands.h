@@ -13,9 +13,7 @@ using Command = std::function<int()>;
 Command add_info(CLI::App& app);
 Command add_render(CLI::App& app);
 Command add_graph(CLI::App& app);
-Command add_bake(CLI::App& app);  // bake.cpp: `weft bake <asset>`
-// bake_btf.cpp: `weft bake btf` (its sub-command of `bake` and what runs it).
-std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake);
+Command add_bake(CLI::App& app);  // bake.cpp: `weft bake <asset>`, the registered features' bakes
 Command add_tradeoff(CLI::App& app);  // tradeoff.cpp: `weft tradeoff SCENE --feature F`
 Command add_view(CLI::App& app);      // view.cpp: `weft view SCENE` (the live viewer)
 

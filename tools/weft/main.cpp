@@ -4,6 +4,7 @@
 #include <exception>
 #include <new>
 #include <string>
+#include <string_view>
 #include <vector>
 #include "commands.h"
 import weft.core;
@@ -15,6 +16,23 @@ int main(int argc, char** argv) {
   if (auto ok = weft::register_builtins(); !ok) {
     std::fprintf(stderr, "weft: %s\n", ok.error().what().c_str());
     return 70;
+  }
+  // Plugins load before the commands are made, so their features' bakes are `weft bake`
+  // commands and their pass types and material types are known to every reader. A plugin named
+  // on the command line must load (the user asked for it); a bad one found on WEFT_PLUGIN_PATH
+  // is a warning and the rest go on.
+  for (const auto& w : weft::pipeline::load_plugins_from_environment()) weft::log::warn(w);
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    std::string path;
+    if (arg == "--plugin" && i + 1 < argc) path = argv[++i];
+    else if (arg.starts_with("--plugin=")) path = std::string(arg.substr(9));
+    else if (!arg.starts_with("-")) break;  // the command: its own arguments follow
+    if (path.empty()) continue;
+    if (auto ok = weft::pipeline::load_plugin(path); !ok) {
+      std::fprintf(stderr, "weft: %s\n", ok.error().what().c_str());
+      return 2;
+    }
   }
   CLI::App app{"weft: a render-graph engine over Vulkan"};
   app.require_subcommand(1);
@@ -51,14 +69,6 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
-  // Plugins named on the command line must load (the user asked for them); a bad one found on
-  // WEFT_PLUGIN_PATH is a warning and the rest go on.
-  for (const auto& w : weft::pipeline::load_plugins_from_environment()) weft::log::warn(w);
-  for (const auto& path : plugins)
-    if (auto ok = weft::pipeline::load_plugin(path); !ok) {
-      std::fprintf(stderr, "weft: %s\n", ok.error().what().c_str());
-      return 2;
-    }
   for (auto& [sub, run] : commands)
     if (sub->parsed()) {
       try {

@@ -163,25 +163,7 @@ Result<void> save_frame(const std::string& path, OutputKind kind, const renderer
 Result<void> save_resource(const std::string& path, OutputKind kind, const renderer::Readback& r) {
   if (kind == OutputKind::Exr) return image::save_exr(path, r.pixels);
   if (kind == OutputKind::Hdr) return image::save_hdr(path, r.pixels);
-  const auto& info = gpu::format_info(r.format);
-  const std::size_t n = std::size_t(r.pixels.width) * r.pixels.height;
-  image::Image8 out = image::Image8::filled(r.pixels.width, r.pixels.height, 4);
-  float lo = 1.0f, hi = 0.0f;
-  if (info.depth)
-    for (std::size_t i = 0; i < n; ++i)
-      if (const float d = r.pixels.pixels[i * 4]; d < 1.0f) lo = std::min(lo, d), hi = std::max(hi, d);
-  const bool raw = !info.depth && info.bytes_per_texel == info.components && !info.srgb;  // 8-bit unorm
-  for (std::size_t i = 0; i < n; ++i)
-    for (int c = 0; c < 4; ++c) {
-      float v = r.pixels.pixels[i * 4 + c];
-      if (info.depth) {
-        const float d = r.pixels.pixels[i * 4];
-        v = c == 3 ? 1.0f : d >= 1.0f ? 0.0f : hi > lo ? 1.0f - 0.85f * (d - lo) / (hi - lo) : 1.0f;
-      } else if (!raw && c < 3) {
-        v = image::linear_to_srgb(std::clamp(v, 0.0f, 1.0f));
-      }
-      out.pixels[i * 4 + c] = std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f));
-    }
+  const image::Image8 out = renderer::picture(r);
   return kind == OutputKind::Png ? image::save_png(path, out) : image::save_jpeg(path, out);
 }
 

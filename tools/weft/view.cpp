@@ -15,7 +15,7 @@ Command add_view(CLI::App& app) {
   struct Options {
     std::string scene, size = "1280x720", quality = "medium", script;
     double motion_budget_ms = 100.0;
-    std::string shader_dir;
+    std::string shader_dir, pipeline;
   };
   auto o = std::make_shared<Options>();
   sub->add_option("scene", o->scene, "Scene file (.json, or a .gltf/.glb); edits to it are reloaded live")->required();
@@ -29,6 +29,8 @@ Command add_view(CLI::App& app) {
   sub->add_option("--shader-dir", o->shader_dir,
                   "Hot-reload built-in shaders from files of the same names in this folder (default: their sources "
                   "in the source tree)");
+  sub->add_option("--pipeline", o->pipeline,
+                  "Pipeline file: the frame's passes (docs/pipelines.md); edits to it are reloaded live");
   return [o] {
 #ifdef WEFT_HAVE_VIEWER
     const auto size = parse_size(o->size, 16384);  // digits only: sscanf's %u read "-1" as 4294967295
@@ -40,6 +42,7 @@ Command add_view(CLI::App& app) {
                                 .motion_budget_ms = o->motion_budget_ms};
     if (!o->script.empty()) options.script = o->script;
     if (!o->shader_dir.empty()) options.shader_dir = o->shader_dir;
+    if (!o->pipeline.empty()) options.pipeline = o->pipeline;
     return viewer::run(options);
 #else
     std::fprintf(stderr, "weft view: this weft was built without the viewer (install libglfw3-dev and libimgui-dev, "

@@ -178,6 +178,20 @@ void graph_panel(Session& s) {
     ImGui::TextDisabled("compiled when the camera stops");
     return;
   }
+  // Any resource of the compiled frame in the window: a pass slot or a texture, by name.
+  if (ImGui::BeginCombo("show", s.show.empty() ? "frame (the pipeline's image)" : s.show.c_str())) {
+    const auto item = [&](const std::string& name, const std::string& label) {
+      if (ImGui::Selectable(label.c_str(), s.show == name)) {
+        s.show = name;
+        s.posted.reset();
+      }
+    };
+    item("", "frame (the pipeline's image)");
+    for (const auto& slot : s.graph->slots) item(slot, slot);
+    for (const auto& r : s.graph->resources)
+      if (!r.starts_with("readback:") && r != "hdr_readback") item(r, r + " (texture)");
+    ImGui::EndCombo();
+  }
   ImGui::Text("passes in order:");
   for (std::size_t i = 0; i < s.graph->passes.size(); ++i) ImGui::BulletText("%zu %s", i, s.graph->passes[i].c_str());
   ImGui::Text("culled: %s", s.graph->culled_passes.empty() ? "(none)" : "");

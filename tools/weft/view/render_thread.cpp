@@ -81,7 +81,9 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
       scene.camera = job.camera;
       RenderResult result{.id = job.id, .moving = job.moving, .reference = job.reference};
       const auto t0 = Clock::now();
-      const renderer::RenderOptions options{.width = job.width, .height = job.height, .quality = job.quality};
+      renderer::RenderOptions options{.width = job.width, .height = job.height, .quality = job.quality};
+      options.pipeline_file = job.pipeline_file;
+      if (!job.show.empty() && !job.reference) options.outputs = {job.show};
       if (job.budget_ms > 0.0) {
         governor::BudgetOptions budget{.budget_ms = job.budget_ms};
         budget.progress = [&](std::string_view line) {
@@ -104,6 +106,8 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
         }
       } else if (auto frame = made->render(scene, options); frame) {
         result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+        // A resource shown instead of the image: its picture takes the image's place.
+        if (!options.outputs.empty() && !frame->outputs.empty()) frame->image = renderer::picture(frame->outputs.front());
         result.frame = std::move(*frame);
         if (job.describe)
           if (auto report = made->describe(scene, options)) result.graph = std::move(*report);

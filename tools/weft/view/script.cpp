@@ -31,7 +31,7 @@ const std::map<std::string, Arity, std::less<>>& commands() {
       {"refine", {0, 0, "refine"}},             {"screenshot", {1, 1, "screenshot PATH"}},
       {"copy", {2, 2, "copy FROM TO"}},         {"compare", {1, 1, "compare MATERIAL"}},
       {"overlay", {1, 1, "overlay on|off"}},         {"quit", {0, 0, "quit"}},
-      {"budget", {1, 1, "budget MILLISECONDS"}},
+      {"budget", {1, 1, "budget MILLISECONDS"}}, {"show", {1, 1, "show RESOURCE|frame"}},
   };
   return table;
 }

@@ -89,6 +89,22 @@ Result<void> Session::load(bool first) {
 }
 
 void Session::poll_reload() {
+  // The pipeline file (--pipeline, or the scene's "pipeline"): the renderer reads it again when
+  // it changed; a new snapshot makes the render thread render with it. A bad edit is the
+  // frame's error, and the last good image stays.
+  const std::filesystem::path pipeline_file = options.pipeline.value_or(scene.pipeline);
+  if (!pipeline_file.empty()) {
+    const auto pipeline_now = modified_time(pipeline_file);
+    if (pipeline_now != pipeline_time) {
+      const bool first = !pipeline_time;
+      pipeline_time = pipeline_now;
+      if (!first) {
+        log::info(weft::format("pipeline {} changed", pipeline_file.string()));
+        if (error.rfind("frame failed", 0) == 0) error.clear();
+        scene_changed();
+      }
+    }
+  }
   const auto now = modified_time(options.scene);
   if (!now || now == scene_time) return;
   if (auto ok = load(false); !ok) {
@@ -317,6 +333,12 @@ void Session::step_script() {
       budget_ms = std::stod(a[0]);
       request_budget();
       return;
+    } else if (c.name == "show") {
+      // The next frame shows this resource (or the frame's image again); a name the frame
+      // does not have is that frame's error, named with what there is.
+      show = a[0] == "frame" ? std::string() : a[0];
+      posted.reset();
+      continue;
     } else if (c.name == "quit") {
       quit = true;
       return;
@@ -335,7 +357,9 @@ void Session::post_job(const Wanted& want) {
   view.position = want.pose.position;
   view.target = want.pose.target;
   scene_renderer->submit({.scene = snapshot, .camera = view, .width = w, .height = h, .quality = want.quality,
-                          .moving = want.moving, .describe = !want.moving && !graph, .id = ++posted_id});
+                          .moving = want.moving, .describe = !want.moving && !graph,
+                          .pipeline_file = options.pipeline.value_or(std::filesystem::path{}), .show = want.show,
+                          .id = ++posted_id});
   if (posted && posted->moving && !want.moving && seconds_since(last_motion) < 3600) refine_requested = last_motion;
   posted = want;
   refined = false;
@@ -660,7 +684,7 @@ int run(const ViewOptions& options) {
     s.handle_input(dt);
     const bool moving = seconds_since(s.last_motion) < 0.25;
     if (!s.snapshot) s.snapshot = std::make_shared<const scene::Scene>(s.scene);
-    const Session::Wanted want{s.snapshot.get(), s.camera->pose(), fw, fh, s.quality, moving};
+    const Session::Wanted want{s.snapshot.get(), s.camera->pose(), fw, fh, s.quality, moving, s.show};
     if (!s.posted || want != *s.posted) s.post_job(want);
     if (auto result = s.scene_renderer->take())
       if (auto ok = s.accept(std::move(*result), fw, fh); !ok) {

@@ -62,6 +62,8 @@ class OrbitCamera {
 //   wait FRAMES | refine | screenshot PATH | copy FROM TO | quit
 //   compare MATERIAL (its feature's reference at this camera: RMSE, PSNR) | overlay on|off
 //   budget MS   (the governor picks each feature's preset for this frame time; waits for it)
+//   show NAME   (any resource of the frame instead of its image: a pass slot "scene.depth" or a
+//                texture's name; `show frame` goes back)
 //   (`copy` also makes the next frame poll the scene file and the shaders for hot reload)
 struct ScriptCommand {
   std::string name;
@@ -86,6 +88,8 @@ struct ViewOptions {
   // Shader hot reload watches the built-in shaders' sources in the source tree; with a folder,
   // files of the same names there instead ("tonemap.frag"), compiled with it first on the path.
   std::optional<std::filesystem::path> shader_dir;
+  // The frame's pipeline file (else the scene's, else the default); edits reload live.
+  std::optional<std::filesystem::path> pipeline;
 };
 // Runs until the window closes, Escape, or the script's `quit`; the exit code (non-zero with
 // a one-line reason on stderr: no display, a bad scene or script, validation messages).
@@ -188,6 +192,8 @@ struct RenderJob {
   bool describe = false;  // also compile the graph for the Graph panel
   bool reference = false;  // the comparison's reference image, not a frame to show
   double budget_ms = 0.0;  // > 0: fit the features to this frame time (weft.governor), many frames
+  std::filesystem::path pipeline_file;  // ViewOptions::pipeline (empty: the scene's)
+  std::string show;        // a resource to show instead of the frame's image (its picture)
   std::uint64_t id = 0;
 };
 // What the governor chose: per feature (its material type), the preset's knob values.
@@ -245,6 +251,8 @@ struct Session {
 
   scene::Scene scene;
   std::optional<std::filesystem::file_time_type> scene_time;
+  std::optional<std::filesystem::file_time_type> pipeline_time;  // of the pipeline file in use, if any
+  std::string show;  // the resource shown instead of the frame's image (Graph panel, script `show`)
   std::optional<ShaderWatch> shader_watch;
   Clock::time_point last_shader_poll{};
   scene::Camera file_camera;  // the file's camera: a reload that changes it resets the view
@@ -260,6 +268,7 @@ struct Session {
     int width = 0, height = 0;
     Quality quality = Quality::Medium;
     bool moving = false;
+    std::string show;
     bool operator==(const Wanted&) const = default;
   };
   std::optional<Wanted> posted;

@@ -1,22 +1,30 @@
-// `weft bake btf IN -o OUT.wbtf --clusters K ...`: trains a neural BTF (docs/neural-btf.md)
-// from a BTF on disk (a .btfraw, or a UBO2003 / UTIA folder) or from the synthetic fabric,
-// writes the .wbtf and prints sizes, the ratio to the raw float data and the RMSE.
+// `weft bake btf IN|--synthetic WxH -o OUT.wbtf --clusters K ...`: trains a neural BTF
+// (docs/neural-btf.md) from a BTF on disk (a .btfraw, or a UBO2003 / UTIA folder) or from the
+// synthetic fabric, writes the .wbtf and prints sizes, the ratio to the raw float data and the
+// RMSE. The feature's descriptor offers it to `weft bake` (FeatureDescriptor::bakes).
+module;
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <expected>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <utility>
-#include "commands.h"
+#include <vector>
+#include <CLI/CLI.hpp>
+#include <charconv>
+#include <optional>
+#include <string_view>
+module weft.pass.neural_btf;
 import weft.core;
 import weft.btf;
 import weft.btf.model;
 import weft.btf.training;
 
-namespace weft::cli {
-
+namespace weft::passes::detail {
 namespace {
 
 int failed(const Error& e) {
@@ -25,9 +33,25 @@ int failed(const Error& e) {
 }
 int invalid(std::string message) { return failed(Error{ErrorKind::InvalidArgument, std::move(message)}); }
 
+struct Texels {
+  std::uint32_t width = 0, height = 0;
+};
+// "64x64" -> {64, 64}; nothing unless both sides are plain numbers in 1..4096.
+std::optional<Texels> parse_texels(std::string_view text) {
+  const auto x = text.find('x');
+  if (x == std::string_view::npos) return std::nullopt;
+  Texels t;
+  const auto side = [](std::string_view s, std::uint32_t& out) {
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), out);
+    return ec == std::errc{} && end == s.data() + s.size() && out >= 1 && out <= 4096;
+  };
+  if (!side(text.substr(0, x), t.width) || !side(text.substr(x + 1), t.height)) return std::nullopt;
+  return t;
+}
+
 }  // namespace
 
-std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
+std::function<int()> add_btf_bake(CLI::App& command) {
   struct Args {
     std::string input, output, synthetic, weave = "twill", checkpoint, optimizer = "sgd", schedule = "constant";
     std::uint32_t clusters = 0, epochs = 0, directions = 0, batch = 5, holdout = 0, patience = 3;
@@ -37,7 +61,7 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
     bool compact = false, no_scales = false, resume = false;
   };
   auto a = std::make_shared<Args>();
-  auto* sub = bake.add_subcommand("btf", "Train a neural BTF (encoder + decoder, optionally clustered): a .wbtf file");
+  auto* sub = &command;
   sub->add_option("input", a->input, "BTF: a .btfraw file or a UBO2003 / UTIA image folder (or use --synthetic)");
   sub->add_option("-o,--output", a->output, "Output .wbtf file")->required();
   sub->add_option("--clusters", a->clusters, "k clusters of ABRDFs (0: the plain model, a latent per texel)")
@@ -67,7 +91,7 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
   sub->add_flag("--resume", a->resume, "Continue from --checkpoint when it exists");
   sub->add_flag("--compact", a->compact, "Store fp16 weights and latents, 8/16-bit ids, 8-bit scales");
   sub->add_flag("--no-scales", a->no_scales, "Clustered without the per-texel luminance scale");
-  return {sub, [a] {
+  return [a] {
             if (a->input.empty() == a->synthetic.empty())
               return invalid("give either a BTF path (IN) or --synthetic WxH, not both or neither");
             if (a->batch == 0) return invalid("--batch 0 (must be at least 1)");
@@ -85,7 +109,7 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
             std::string source;
             if (!a->synthetic.empty()) {
               btf::SyntheticOptions so;
-              const auto size = parse_size(a->synthetic, 4096);
+              const auto size = parse_texels(a->synthetic);
               if (!size)
                 return invalid(weft::format("--synthetic '{}' is not WxH (e.g. 64x64, each side 1..4096, and the samples "
                                             "must fit in memory: 78.7 KB per texel)",
@@ -172,7 +196,7 @@ std::pair<CLI::App*, Command> add_bake_btf(CLI::App& bake) {
                         "loss %.4g\n",
                         *error, mean, btf::constant_rmse(data), trained->final_loss);
             return 0;
-          }};
+          };
 }
 
-}  // namespace weft::cli
+}  // namespace weft::passes::detail
