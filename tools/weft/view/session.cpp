@@ -126,11 +126,9 @@ Result<void> Session::open() {
   else
     return std::unexpected(q.error());
   if (options.script) {
-    std::ifstream in(*options.script);
-    if (!in) return fail(ErrorKind::Io, "cannot read script '{}'", options.script->string());
-    std::stringstream text;
-    text << in.rdbuf();
-    auto parsed = parse_script(*options.script, text.str());
+    auto text = read_input_file(*options.script, "script");
+    if (!text) return std::unexpected(text.error());
+    auto parsed = parse_script(*options.script, std::string(text->begin(), text->end()));
     if (!parsed) return std::unexpected(parsed.error());
     script = std::move(*parsed);
   }
