@@ -239,6 +239,17 @@ TEST_CASE("issue 33: hot reload to a scene whose mesh is a FIFO is an error nami
   CHECK(difference(shot("f_a.png"), shot("f_b.png")).max == 0);  // the last good frame
 }
 
+TEST_CASE("issue 33: a script line with NaN or infinity is refused before the window opens") {
+  write(scratch() / "nan.txt", "orbit 10 0\norbit nan nan\nquit\n");
+  write(scratch() / "nan.json", ball_scene("[0.8, 0.1, 0.05]"));
+  auto r = run("timeout 60 " + weft_cli() + " view " + (scratch() / "nan.json").string() + " --size 160x120 --script " +
+               (scratch() / "nan.txt").string());
+  INFO(r.output);
+  CHECK(r.code != 0);
+  CHECK(r.code != 124);
+  CHECK(r.output.find("nan.txt:2: 'orbit' expects finite numbers, got 'nan'") != std::string::npos);
+}
+
 TEST_CASE("compare with reference: the reference setting against itself is exact, a coarse skin LUT is not") {
   require_display();
   write(scratch() / "compare.json", skin_scene("100", "ball", "[0.45, 0.3, 0.2]"));
