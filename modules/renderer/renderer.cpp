@@ -10,6 +10,7 @@ module;
 #include <span>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <variant>
 #include <vector>
 #include <glm/gtc/matrix_transform.hpp>
@@ -448,6 +449,14 @@ bool has_key_light(const scene::Scene& scene) {
 }
 
 Result<std::pair<std::uint32_t, std::uint32_t>> frame_size(const scene::Scene& scene, const RenderOptions& options) {
+  // A camera with NaN or infinity (a scene built in code, a viewer's pose) would give NaN
+  // matrices to every pass: refused, naming the field (a scene file's camera is checked when read).
+  const scene::Camera& c = scene.camera;
+  const auto finite = [](vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
+  for (const auto& [field, v] : {std::pair{"position", c.position}, std::pair{"target", c.target}, std::pair{"up", c.up}})
+    if (!finite(v)) return fail(ErrorKind::InvalidArgument, "scene camera: {} ({}, {}, {}) is not finite", field, v.x, v.y, v.z);
+  for (const auto& [field, v] : {std::pair{"fov", c.fov_y_degrees}, std::pair{"near", c.near}, std::pair{"far", c.far}})
+    if (!std::isfinite(v)) return fail(ErrorKind::InvalidArgument, "scene camera: {} {} is not finite", field, v);
   const std::uint32_t w = options.width ? options.width : scene.output.width;
   const std::uint32_t h = options.height ? options.height : scene.output.height;
   if (w == 0 || h == 0 || w > scene::max_output_side || h > scene::max_output_side)
