@@ -246,6 +246,7 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
   const scene::DirectionalLight* key_light = nullptr;
   for (const auto& light : scene.lights)
     if (const auto* d = std::get_if<scene::DirectionalLight>(&light); d && !key_light) key_light = d;
+  const std::vector<bool> casts = key_light ? select_shadow_casters(scene, -key_light->direction) : std::vector<bool>{};
   for (std::uint32_t i = 0; i < scene.objects.size(); ++i) {
     const auto& object = scene.objects[i];
     const auto& material = scene.materials.at(object.material);
@@ -254,7 +255,7 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
     item.material = {.base_color = s.base_color, .metallic = s.metallic, .roughness = s.roughness, .emissive = s.emissive,
                      .normal_scale = s.normal_scale, .occlusion_strength = s.occlusion_strength};
     // A floor under everything shadows nothing and covered most of the shadow map.
-    if (!key_light || !shadows_nothing_visible(scene, i, -key_light->direction)) shadow_casters.push_back(item);
+    if (!key_light || casts[i]) shadow_casters.push_back(item);
     if (material.type != scene::standard_material) {
       feature_objects[material.type].push_back(i);
       continue;
