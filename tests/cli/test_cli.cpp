@@ -348,3 +348,26 @@ TEST_CASE("issue 33: input paths that are FIFOs, folders or devices are named er
   }
   std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("issue 33: weft-bench-objects answers --help without work, refuses bad arguments, and its selection agrees") {
+  const std::string bench = WEFT_BENCH_OBJECTS;
+  const auto help = run_command("timeout 20 " + bench + " --help");
+  CHECK(help.exit_code == 0);
+  CHECK(contains(help.output, "usage: weft-bench-objects"));
+  CHECK_FALSE(contains(help.output, "adapter:"));
+  for (const char* args : {"--counts 0", "--counts 100000000000", "--counts 10,,20", "--counts 1e3", "--runs abc", "--runs 0",
+                           "--size 0x5", "--size 64", "--mesh cone", "--quality ultra", "--reference-max -1", "--runs",
+                           "--frobnicate"}) {
+    CAPTURE(args);
+    const auto r = run_command("timeout 20 " + bench + " " + args);
+    CHECK(r.exit_code == 2);
+    CHECK(contains(r.output, "weft-bench-objects: "));
+    CHECK_FALSE(contains(r.output, "adapter:"));
+  }
+  // The selection table alone needs no device: the hierarchy's answer equals the reference's.
+  const auto r = run_command("timeout 60 " + bench + " --no-render --mesh quad --counts 10,500 --runs 1");
+  CHECK_MESSAGE(r.exit_code == 0, r.output);
+  CHECK_MESSAGE(contains(r.output, "| 500 |"), r.output);
+  CHECK_MESSAGE(contains(r.output, "| yes |"), r.output);
+  CHECK_FALSE(contains(r.output, "| NO |"));
+}
