@@ -111,9 +111,9 @@ std::string tidy_log(std::string_view label, const std::string& log) {
 }
 
 std::vector<std::uint32_t> read_spirv(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  if (!in) return {};
-  std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto read = read_input_file(p, "SPIR-V cache file");  // a miss (also for a FIFO planted in the cache)
+  if (!read) return {};
+  const std::vector<unsigned char>& bytes = *read;
   if (bytes.size() < 4 || bytes.size() % 4) return {};
   std::vector<std::uint32_t> words(bytes.size() / 4);
   std::memcpy(words.data(), bytes.data(), bytes.size());
