@@ -78,9 +78,10 @@ class Includer : public glslang::TShader::Includer {
 
  private:
   IncludeResult* try_open(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    if (!in) return nullptr;
-    auto* text = new std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    // Not an include file when it is a FIFO or a device: glslang says it cannot find it.
+    auto bytes = read_input_file(p, "shader include");
+    if (!bytes) return nullptr;
+    auto* text = new std::string(bytes->begin(), bytes->end());
     return new IncludeResult(p.string(), text->data(), text->size(), text);
   }
   std::vector<fs::path> dirs_;
@@ -110,9 +111,9 @@ std::string tidy_log(std::string_view label, const std::string& log) {
 }
 
 std::vector<std::uint32_t> read_spirv(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  if (!in) return {};
-  std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto read = read_input_file(p, "SPIR-V cache file");  // a miss (also for a FIFO planted in the cache)
+  if (!read) return {};
+  const std::vector<unsigned char>& bytes = *read;
   if (bytes.size() < 4 || bytes.size() % 4) return {};
   std::vector<std::uint32_t> words(bytes.size() / 4);
   std::memcpy(words.data(), bytes.data(), bytes.size());
@@ -145,9 +146,9 @@ Result<std::vector<std::uint32_t>> compile_glsl(const ShaderModuleDescriptor& de
   std::vector<fs::path> include_dirs = desc.include_dirs;
   if (source.empty()) {
     if (desc.path.empty()) return fail(ErrorKind::InvalidArgument, "shader '{}': no GLSL source, path or SPIR-V", desc.label);
-    std::ifstream in(desc.path, std::ios::binary);
-    if (!in) return fail(ErrorKind::NotFound, "shader '{}': cannot open '{}'", desc.label, desc.path.string());
-    source.assign((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    auto text = read_input_file(desc.path, "shader file");
+    if (!text) return with_context(weft::format("shader '{}'", desc.label), text.error());
+    source.assign(text->begin(), text->end());
     name = desc.path.string();
     include_dirs.insert(include_dirs.begin(), desc.path.parent_path());
   }

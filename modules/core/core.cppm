@@ -221,6 +221,23 @@ struct BinaryFileHeader {
                                                  std::initializer_list<std::span<const std::byte>> parts,
                                                  std::string_view what);
 
+// Reading a user's input file (files.cpp). Every weft reader of a path a user gives --
+// scenes, meshes, textures, photos, environments, BTFs, caches, scripts, shaders -- goes
+// through these, so none of them waits forever on a path that is not a file on disk: a FIFO
+// (open() blocks until a writer comes), a folder, a device (/dev/zero never ends) or a
+// procfs file that blocks (/proc/kmsg). The path is classified by stat() before it is
+// opened (opening some devices has effects), opened non-blocking, checked again with
+// fstat(), and read without ever waiting. Errors, naming `what` and the path:
+//   NotFound "scene file 'x.json' not found"
+//   Io       "mesh file 'm.obj' is a FIFO, not a regular file" (a folder, a character device, ...)
+//   Io       "mesh file '/proc/kmsg' cannot be read without waiting (not a regular file on disk)"
+//   Io       "cannot open texture 't.png': Permission denied"
+[[nodiscard]] Result<std::vector<unsigned char>> read_input_file(const std::filesystem::path& path, std::string_view what);
+// The same checks without keeping the bytes, for readers that open the path themselves
+// (OpenMesh, glslangValidator): a regular file passes at the cost of a stat(); an empty-looking
+// one (procfs reports size 0) is read through, without waiting, to prove it ends.
+[[nodiscard]] Result<void> check_input_file(const std::filesystem::path& path, std::string_view what);
+
 // ---- logging -------------------------------------------------------------------------
 // Thin wrappers over spdlog so modules need not include it; the level comes from
 // WEFT_LOG (trace, debug, info, warn, error, off), default info.

@@ -17,7 +17,9 @@ module;
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <vector>
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 module weft.core;
 
@@ -57,6 +59,87 @@ Result<void> write_file_atomically(const std::filesystem::path& path, std::initi
     return fail(ErrorKind::Io, "cannot write {} '{}': {}", what, path.string(), std::strerror(error));
   }
   return {};
+}
+
+namespace {
+
+// "a FIFO" for what stat() says a path is, when that is not a regular file.
+const char* not_regular(mode_t mode) {
+  if (S_ISDIR(mode)) return "a folder";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  if (S_ISREG(mode)) return nullptr;
+  return "not a file";
+}
+
+Result<struct stat> classify(const std::filesystem::path& path, std::string_view what) {
+  if (path.empty()) return fail(ErrorKind::NotFound, "{} '' not found (an empty path)", what);
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    const int error = errno;
+    if (error == ENOENT || error == ENOTDIR) return fail(ErrorKind::NotFound, "{} '{}' not found", what, path.string());
+    return fail(ErrorKind::Io, "cannot open {} '{}': {}", what, path.string(), std::strerror(error));
+  }
+  if (const char* kind = not_regular(st.st_mode))
+    return fail(ErrorKind::Io, "{} '{}' is {}, not a regular file", what, path.string(), kind);
+  return st;
+}
+
+// Opens the regular file `path` without waiting and reads it to the end into `out` (or
+// only through it, when `out` is null).
+Result<void> read_regular(const std::filesystem::path& path, std::string_view what, std::vector<unsigned char>* out,
+                          std::size_t size_hint) {
+  int fd = -1;
+  do fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+  while (fd < 0 && errno == EINTR);
+  if (fd < 0) {
+    const int error = errno;
+    if (error == ENOENT) return fail(ErrorKind::NotFound, "{} '{}' not found", what, path.string());
+    return fail(ErrorKind::Io, "cannot open {} '{}': {}", what, path.string(), std::strerror(error));
+  }
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || not_regular(st.st_mode) != nullptr) {
+    const char* kind = not_regular(st.st_mode);
+    ::close(fd);
+    return fail(ErrorKind::Io, "{} '{}' is {}, not a regular file", what, path.string(), kind ? kind : "not readable");
+  }
+  if (out) out->reserve(size_hint ? size_hint : std::size_t(st.st_size));
+  unsigned char chunk[1 << 16];
+  for (;;) {
+    const ::ssize_t n = ::read(fd, chunk, sizeof chunk);
+    if (n == 0) break;
+    if (n < 0) {
+      const int error = errno;
+      if (error == EINTR) continue;
+      ::close(fd);
+      if (error == EAGAIN || error == EWOULDBLOCK)
+        return fail(ErrorKind::Io, "{} '{}' cannot be read without waiting (not a regular file on disk)", what, path.string());
+      if (error == EISDIR) return fail(ErrorKind::Io, "{} '{}' is a folder, not a regular file", what, path.string());
+      return fail(ErrorKind::Io, "cannot read {} '{}': {}", what, path.string(), std::strerror(error));
+    }
+    if (out) out->insert(out->end(), chunk, chunk + n);
+  }
+  ::close(fd);
+  return {};
+}
+
+}  // namespace
+
+Result<std::vector<unsigned char>> read_input_file(const std::filesystem::path& path, std::string_view what) {
+  auto st = classify(path, what);
+  if (!st) return std::unexpected(st.error());
+  std::vector<unsigned char> bytes;
+  if (auto ok = read_regular(path, what, &bytes, std::size_t(st->st_size)); !ok) return std::unexpected(ok.error());
+  return bytes;
+}
+
+Result<void> check_input_file(const std::filesystem::path& path, std::string_view what) {
+  auto st = classify(path, what);
+  if (!st) return std::unexpected(st.error());
+  if (st->st_size > 0) return {};
+  return read_regular(path, what, nullptr, 0);
 }
 
 }  // namespace weft

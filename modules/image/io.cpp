@@ -34,26 +34,9 @@ std::string lower_extension(const fs::path& path) {
 }
 
 Result<std::vector<std::uint8_t>> read_bytes(const fs::path& path) {
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (st.type() == fs::file_type::not_found) {
-    return fail(ErrorKind::NotFound, "image file '{}' does not exist", path.string());
-  }
-  if (ec) return fail(ErrorKind::Io, "cannot read image '{}': {}", path.string(), ec.message());
-  if (fs::is_directory(st)) return fail(ErrorKind::Io, "cannot read image '{}': it is a directory", path.string());
-
-  std::FILE* file = std::fopen(path.c_str(), "rb");
-  if (file == nullptr) {
-    return fail(ErrorKind::Io, "cannot open image '{}': {}", path.string(), std::strerror(errno));
-  }
-  std::vector<std::uint8_t> bytes;
-  std::uint8_t chunk[1 << 16];
-  std::size_t n = 0;
-  while ((n = std::fread(chunk, 1, sizeof chunk, file)) > 0) bytes.insert(bytes.end(), chunk, chunk + n);
-  const bool failed = std::ferror(file) != 0;
-  std::fclose(file);
-  if (failed) return fail(ErrorKind::Io, "error reading image '{}'", path.string());
-  if (bytes.empty()) return fail(ErrorKind::Parse, "cannot decode image '{}': the file is empty", path.string());
+  auto bytes = read_input_file(path, "image file");
+  if (!bytes) return std::unexpected(bytes.error());
+  if (bytes->empty()) return fail(ErrorKind::Parse, "cannot decode image '{}': the file is empty", path.string());
   return bytes;
 }
 

@@ -12,6 +12,7 @@ module;
 #include <span>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <variant>
 #include <vector>
 #include <glm/gtc/matrix_transform.hpp>
@@ -300,6 +301,7 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
   const scene::DirectionalLight* key_light = nullptr;
   for (const auto& light : scene.lights)
     if (const auto* d = std::get_if<scene::DirectionalLight>(&light); d && !key_light) key_light = d;
+  const std::vector<bool> casts = key_light ? select_shadow_casters(scene, -key_light->direction) : std::vector<bool>{};
   for (std::uint32_t i = 0; i < scene.objects.size(); ++i) {
     const auto& object = scene.objects[i];
     const auto& material = scene.materials.at(object.material);
@@ -308,7 +310,7 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
     item.material = {.base_color = s.base_color, .metallic = s.metallic, .roughness = s.roughness, .emissive = s.emissive,
                      .normal_scale = s.normal_scale, .occlusion_strength = s.occlusion_strength};
     // A floor under everything shadows nothing and covered most of the shadow map.
-    if (!key_light || !shadows_nothing_visible(scene, i, -key_light->direction)) shadow_casters.push_back(item);
+    if (!key_light || casts[i]) shadow_casters.push_back(item);
     if (material.type != scene::standard_material) {
       feature_objects[material.type].push_back(i);
       continue;
@@ -583,6 +585,14 @@ bool has_key_light(const scene::Scene& scene) {
 }
 
 Result<std::pair<std::uint32_t, std::uint32_t>> frame_size(const scene::Scene& scene, const RenderOptions& options) {
+  // A camera with NaN or infinity (a scene built in code, a viewer's pose) would give NaN
+  // matrices to every pass: refused, naming the field (a scene file's camera is checked when read).
+  const scene::Camera& c = scene.camera;
+  const auto finite = [](vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
+  for (const auto& [field, v] : {std::pair{"position", c.position}, std::pair{"target", c.target}, std::pair{"up", c.up}})
+    if (!finite(v)) return fail(ErrorKind::InvalidArgument, "scene camera: {} ({}, {}, {}) is not finite", field, v.x, v.y, v.z);
+  for (const auto& [field, v] : {std::pair{"fov", c.fov_y_degrees}, std::pair{"near", c.near}, std::pair{"far", c.far}})
+    if (!std::isfinite(v)) return fail(ErrorKind::InvalidArgument, "scene camera: {} {} is not finite", field, v);
   const std::uint32_t w = options.width ? options.width : scene.output.width;
   const std::uint32_t h = options.height ? options.height : scene.output.height;
   if (w == 0 || h == 0 || w > scene::max_output_side || h > scene::max_output_side)

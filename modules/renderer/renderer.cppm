@@ -122,7 +122,20 @@ class Renderer {
 // their parts behind it are hidden by it (it must then be a filled rectangle). Such an object
 // shadows nothing visible, so the key light's shadow map leaves it out: a floor under the
 // scene covered most of the map.
+// Asked for one object it compares that object with every other: the reference for
+// select_shadow_casters, which the renderer uses.
 [[nodiscard]] bool shadows_nothing_visible(const scene::Scene& scene, std::uint32_t index, vec3 towards_light);
+
+// The same rule for every object at once, in O(n log n) for n objects (the boxes in a
+// bounding-volume hierarchy) instead of n - 1 box tests per flat object: element i is false
+// exactly when shadows_nothing_visible(scene, i, towards_light) is true, i.e. the shadow map
+// draws the objects whose element is true. `stats`, when given, says how much work it did.
+struct ShadowCasterStats {
+  std::uint64_t flat_objects = 0;  // objects that needed the other objects' boxes
+  std::uint64_t boxes_tested = 0;  // boxes given the exact test (the reference: n - 1 per flat object)
+};
+[[nodiscard]] std::vector<bool> select_shadow_casters(const scene::Scene& scene, vec3 towards_light,
+                                                      ShadowCasterStats* stats = nullptr);
 
 }  // namespace weft::renderer
 

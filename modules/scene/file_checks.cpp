@@ -47,7 +47,7 @@ long long ply_binary_integer(const unsigned char* p, std::string_view t, bool bi
 // from 0 to 4096 (a 'tristrips' element's list, which weft turns into faces itself, may be
 // as long as the file).
 Result<PlyLayout> check_ply(const std::filesystem::path& path) {
-  auto file = detail::read_file(path, "mesh file");
+  auto file = weft::read_input_file(path, "mesh file");
   if (!file) return std::unexpected(file.error());
   PlyLayout layout;
   layout.bytes = std::move(*file);
@@ -223,7 +223,7 @@ static Result<void> check_obj_numbers(const std::filesystem::path& path, std::si
 // also drops a vertex it cannot read ("v nan nan nan"), so that its faces later look out of
 // range: every v, vt and vn number must be a finite number.
 Result<void> check_obj(const std::filesystem::path& path) {
-  auto bytes = detail::read_file(path, "mesh file");
+  auto bytes = weft::read_input_file(path, "mesh file");
   if (!bytes) return std::unexpected(bytes.error());
   const std::string_view text(reinterpret_cast<const char*>(bytes->data()), bytes->size());
   const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; };
@@ -275,7 +275,7 @@ Result<void> check_obj(const std::filesystem::path& path) {
 // ends before it), looping billions of times; the file is checked first: the OFF keyword
 // with its optional prefixes, counts the file could hold, then the vertex and face lines.
 Result<void> check_off(const std::filesystem::path& path) {
-  auto bytes = detail::read_file(path, "mesh file");
+  auto bytes = weft::read_input_file(path, "mesh file");
   if (!bytes) return std::unexpected(bytes.error());
   const std::string_view text(reinterpret_cast<const char*>(bytes->data()), bytes->size());
   const auto bad = [&](std::string_view why) -> Result<void> {

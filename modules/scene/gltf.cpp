@@ -759,7 +759,7 @@ namespace detail {
 
 Result<GltfScene> read_gltf(const std::filesystem::path& path) {
   try {
-    auto bytes = read_file(path, "glTF file");
+    auto bytes = weft::read_input_file(path, "glTF file");
     if (!bytes) return std::unexpected(bytes.error());
     if (bytes->empty()) return fail(ErrorKind::Parse, "glTF '{}': the file is empty", path.string());
     if (auto ok = check_json(*bytes); !ok) return fail(ErrorKind::Parse, "glTF '{}': {}", path.string(), ok.error().message);

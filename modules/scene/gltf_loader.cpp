@@ -5,10 +5,9 @@
 
 #include <cstring>
 #include <exception>
-#include <fstream>
-#include <iterator>
 #include <new>
 #include <system_error>
+import weft.core;
 
 namespace weft::scene::gltf_detail {
 namespace {
@@ -43,8 +42,8 @@ bool file_exists(const std::string& candidate, void* user) {
   if (!from_base(candidate, c)) return false;
   const auto inside = resolve(candidate, c);
   if (!inside) return true;  // read_whole_file says why it is not read
-  std::error_code ec;
-  return std::filesystem::is_regular_file(*inside, ec);
+  std::error_code ec;  // a FIFO or a folder "exists": read_whole_file says what it is
+  return std::filesystem::exists(*inside, ec);
 }
 
 std::string expand_file_path(const std::string& path, void*) { return path; }
@@ -56,12 +55,12 @@ bool read_whole_file(std::vector<unsigned char>* out, std::string* err, const st
     if (err) *err += "the URI leads outside the glTF file's folder (weft reads buffers only from that folder)";
     return false;
   }
-  std::ifstream in(*inside, std::ios::binary);
-  if (!in) {
-    if (err) *err += "cannot open it";
+  auto bytes = weft::read_input_file(*inside, "glTF resource");
+  if (!bytes) {
+    if (err) *err += bytes.error().message;
     return false;
   }
-  out->assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  *out = std::move(*bytes);
   return true;
 }
 

@@ -110,7 +110,7 @@ Result<void> check_json_structure(std::string_view text, std::size_t max_depth) 
 namespace weft::scene {
 Result<void> check_json_text(std::string_view text, std::size_t max_depth) { return detail::check_json_structure(text, max_depth); }
 Result<std::string> read_text_file(const std::filesystem::path& path, std::string_view what) {
-  auto bytes = detail::read_file(path, what);
+  auto bytes = weft::read_input_file(path, what);
   if (!bytes) return std::unexpected(bytes.error());
   return std::string(reinterpret_cast<const char*>(bytes->data()), bytes->size());
 }

@@ -274,6 +274,14 @@ std::filesystem::path JsonReader::path(std::string_view key, bool must_exist) {
     error_at(key, fmt::format("file not found: '{}'", p.string()));
     return {};
   }
+  // A FIFO or a device would block or never end when read: refused here, with the field's
+  // JSON path. A folder passes (a BTF image set is one); its reader says when it wants a file.
+  if (must_exist && !std::filesystem::is_directory(p, ec)) {
+    if (auto ok = weft::check_input_file(p, "file"); !ok) {
+      error_at(key, ok.error().message);
+      return {};
+    }
+  }
   return p;
 }
 

@@ -229,7 +229,7 @@ struct CornerKeyHash {
 // loses its place on layouts the format allows ("OFF  4 1 0", two spaces: an endless loop found
 // by fuzz_off), so it never sees the original text.
 Result<std::string> canonical_off(const std::filesystem::path& path) {
-  auto bytes = detail::read_file(path, "mesh file");
+  auto bytes = weft::read_input_file(path, "mesh file");
   if (!bytes) return std::unexpected(bytes.error());
   const std::string_view text(reinterpret_cast<const char*>(bytes->data()), bytes->size());
   std::string out;
@@ -424,11 +424,8 @@ Result<Mesh> merge_gltf(const std::filesystem::path& path) {
 
 Result<Mesh> load_mesh(const std::filesystem::path& path, const LoadOptions& options) {
   try {
-    std::error_code ec;
-    if (!std::filesystem::exists(path, ec)) return fail(ErrorKind::NotFound, "mesh file '{}' not found", path.string());
-    if (std::filesystem::is_directory(path, ec)) {
-      return fail(ErrorKind::Io, "mesh file '{}' is a folder, not a file", path.string());
-    }
+    // OpenMesh opens the path itself (OBJ, STL): a FIFO or a device must not reach it.
+    if (auto ok = weft::check_input_file(path, "mesh file"); !ok) return std::unexpected(ok.error());
     const std::string ext = detail::lowercase_extension(path);
     Result<Mesh> mesh = std::unexpected(Error{});
     if (ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl") {

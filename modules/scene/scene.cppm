@@ -535,8 +535,6 @@ namespace weft::scene::detail {
 void warn(std::vector<std::string>& warnings, std::string message);
 // ".obj" for "a/B.OBJ".
 [[nodiscard]] std::string lowercase_extension(const std::filesystem::path& path);
-// The whole file; NotFound / Io errors name `what` and the path.
-[[nodiscard]] Result<std::vector<unsigned char>> read_file(const std::filesystem::path& path, std::string_view what);
 // For every position, the index of the first position bit-identical to it (+0 == -0), and
 // how many distinct positions there are.
 struct Welding {

@@ -357,7 +357,7 @@ Result<SceneDesc> parse_scene(std::string_view json_text, const std::filesystem:
 }
 
 Result<SceneDesc> load_scene_file(const std::filesystem::path& path) {
-  auto bytes = detail::read_file(path, "scene file");
+  auto bytes = weft::read_input_file(path, "scene file");
   if (!bytes) return std::unexpected(bytes.error());
   const std::string_view text(reinterpret_cast<const char*>(bytes->data()), bytes->size());
   auto desc = parse_scene(text, path.parent_path(), weft::format("scene '{}'", path.string()));

@@ -11,6 +11,8 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -275,4 +277,97 @@ TEST_CASE("issue 21: the brightest light a scene may have shades finite pixels (
   // overflowing to infinity and NaN, which drew black.
   CHECK(brightest > 1e4f);
   std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("issue 33: input paths that are FIFOs, folders or devices are named errors, never a wait") {
+  // Each command runs under `timeout`: a reader that waits on a FIFO for a writer (or on
+  // /dev/zero for its end) fails this test with exit 124 instead of hanging it.
+  const auto dir = temp_dir();
+  const auto fifo = [&](const std::string& name) {
+    const auto p = dir / name;
+    REQUIRE(::mkfifo(p.c_str(), 0600) == 0);
+    return p.string();
+  };
+  const std::string scene_fifo = fifo("fifo.json"), mesh_fifo = fifo("mesh.obj"), stl_fifo = fifo("mesh.stl"),
+                    texture_fifo = fifo("texture.png"), hdr_fifo = fifo("sky.hdr"), exr_fifo = fifo("sky.exr"),
+                    photo_fifo = fifo("photo.png"), model_fifo = fifo("cloth.wbtf"), btf_fifo = fifo("cloth.btfraw"),
+                    gltf_fifo = fifo("model.gltf");
+  std::filesystem::create_directories(dir / "folder.obj");
+  std::filesystem::create_symlink("/dev/zero", dir / "zero.obj");
+  const auto with = [&](const std::string& name, const std::string& meshes, const std::string& materials,
+                        const std::string& extra = "") {
+    std::ofstream(dir / name) << R"({"version": 1, "output": {"width": 32, "height": 24},
+      "camera": {"position": [0, 0, 3], "target": [0, 0, 0]},)" << extra << R"(
+      "meshes": )" << meshes << R"(, "materials": )" << materials << R"(,
+      "objects": [{"name": "o", "mesh": "m", "material": "a"}]})";
+    return (dir / name).string();
+  };
+  const std::string ball = R"({"m": {"primitive": "sphere", "radius": 0.5, "segments": 8}})";
+  const std::string plain = R"({"a": {"type": "standard"}})";
+  const auto mesh_at = [](const std::string& p) { return R"({"m": {"path": ")" + p + R"("}})"; };
+  struct Case {
+    std::string args, path, what;
+  };
+  const std::vector<Case> cases = {
+      {"render " + scene_fifo + " -o OUT", scene_fifo, "is a FIFO, not a regular file"},
+      {"graph " + scene_fifo, scene_fifo, "is a FIFO, not a regular file"},
+      {"render " + mesh_fifo + " -o OUT", mesh_fifo, "is a FIFO, not a regular file"},
+      {"render " + stl_fifo + " -o OUT", stl_fifo, "is a FIFO, not a regular file"},
+      {"render " + gltf_fifo + " -o OUT", gltf_fifo, "is a FIFO, not a regular file"},
+      {"render " + (dir / "folder.obj").string() + " -o OUT", (dir / "folder.obj").string(), "is a folder"},
+      {"render " + (dir / "zero.obj").string() + " -o OUT", (dir / "zero.obj").string(), "is a character device"},
+      {"render " + with("mesh.json", mesh_at(mesh_fifo), plain) + " -o OUT", mesh_fifo, "is a FIFO"},
+      {"render " + with("zero.json", mesh_at((dir / "zero.obj").string()), plain) + " -o OUT",
+       (dir / "zero.obj").string(), "is a character device"},
+      {"render " + with("texture.json", ball, R"({"a": {"base_color_texture": ")" + texture_fifo + R"("}})") + " -o OUT",
+       texture_fifo, "is a FIFO"},
+      {"render " + with("hdr.json", ball, plain, R"("environment": {"hdr": ")" + hdr_fifo + R"("},)") + " -o OUT", hdr_fifo,
+       "is a FIFO"},
+      {"render " + with("exr.json", ball, plain, R"("environment": {"hdr": ")" + exr_fifo + R"("},)") + " -o OUT", exr_fifo,
+       "is a FIFO"},
+      {"render " + with("fur.json", ball, R"({"a": {"type": "fur", "photo": ")" + photo_fifo + R"("}})") + " -o OUT",
+       photo_fifo, "is a FIFO"},
+      {"render " + with("btf.json", ball, R"({"a": {"type": "neural_btf", "model": ")" + model_fifo + R"("}})") + " -o OUT",
+       model_fifo, "is a FIFO"},
+      {"bake btf " + btf_fifo + " -o " + (dir / "out.wbtf").string(), btf_fifo, "is a FIFO"},
+      {"tradeoff " + scene_fifo + " --feature fur", scene_fifo, "is a FIFO"},
+      {"view " + with("ok.json", ball, plain) + " --script " + fifo("session.txt"), (dir / "session.txt").string(),
+       "is a FIFO"},
+  };
+  for (const auto& c : cases) {
+    const auto out = dir / "out.png";
+    std::string args = c.args;
+    if (const auto at = args.find("OUT"); at != std::string::npos) args.replace(at, 3, out.string());
+    CAPTURE(args);
+    const auto r = run_command("timeout 60 " + cli + " " + args + " </dev/null");
+    CHECK_MESSAGE(r.exit_code != 124, "timed out: " << r.output);
+    CHECK_MESSAGE(r.exit_code != 0, r.output);
+    CHECK_MESSAGE(contains(r.output, c.path), r.output);
+    CHECK_MESSAGE(contains(r.output, c.what), r.output);
+    CHECK_FALSE(std::filesystem::exists(out));
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("issue 33: weft-bench-objects answers --help without work, refuses bad arguments, and its selection agrees") {
+  const std::string bench = WEFT_BENCH_OBJECTS;
+  const auto help = run_command("timeout 20 " + bench + " --help");
+  CHECK(help.exit_code == 0);
+  CHECK(contains(help.output, "usage: weft-bench-objects"));
+  CHECK_FALSE(contains(help.output, "adapter:"));
+  for (const char* args : {"--counts 0", "--counts 100000000000", "--counts 10,,20", "--counts 1e3", "--runs abc", "--runs 0",
+                           "--size 0x5", "--size 64", "--mesh cone", "--quality ultra", "--reference-max -1", "--runs",
+                           "--frobnicate"}) {
+    CAPTURE(args);
+    const auto r = run_command("timeout 20 " + bench + " " + args);
+    CHECK(r.exit_code == 2);
+    CHECK(contains(r.output, "weft-bench-objects: "));
+    CHECK_FALSE(contains(r.output, "adapter:"));
+  }
+  // The selection table alone needs no device: the hierarchy's answer equals the reference's.
+  const auto r = run_command("timeout 60 " + bench + " --no-render --mesh quad --counts 10,500 --runs 1");
+  CHECK_MESSAGE(r.exit_code == 0, r.output);
+  CHECK_MESSAGE(contains(r.output, "| 500 |"), r.output);
+  CHECK_MESSAGE(contains(r.output, "| yes |"), r.output);
+  CHECK_FALSE(contains(r.output, "| NO |"));
 }

@@ -1,6 +1,8 @@
 // weft::write_file_atomically, the writer behind every cache and checkpoint: two processes
 // writing one path, a process killed mid-write, a full disk (a file-size limit) and a
-// folder that cannot be written never leave a mixed, half or stray file behind.
+// folder that cannot be written never leave a mixed, half or stray file behind. And
+// weft::read_input_file / check_input_file, the reader behind every input path: a FIFO, a
+// folder or a device is a named error, never a wait.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -11,13 +13,16 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <iterator>
 #include <random>
 #include <span>
 #include <string>
 #include <thread>
 #include <vector>
+#include <fcntl.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -162,4 +167,83 @@ TEST_CASE("a full disk (a file-size limit) and an unwritable folder are errors, 
   CHECK(r.error().kind == weft::ErrorKind::Io);
   CHECK(r.error().message.find("cannot write cache entry") != std::string::npos);
   CHECK(r.error().message.find("Not a directory") != std::string::npos);
+}
+
+// ---- read_input_file / check_input_file (issue 33: a FIFO as a scene, mesh or photo blocked forever)
+
+namespace {
+
+// Runs `read` on a thread and waits up to 10 s. When it is still waiting (on a FIFO nobody
+// writes), a writer opens the FIFO and closes it, which ends the reader's wait with an empty
+// read, so a regression fails the test instead of hanging it.
+template <class F>
+auto without_waiting(F read, const fs::path& fifo) {
+  std::packaged_task<decltype(read())()> task(read);
+  auto result = task.get_future();
+  std::thread thread(std::move(task));
+  const bool finished = result.wait_for(std::chrono::seconds(10)) == std::future_status::ready;
+  if (!finished && !fifo.empty()) {
+    const int fd = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+    if (fd >= 0) ::close(fd);
+  }
+  thread.join();
+  CHECK_MESSAGE(finished, "the read waited for more than 10 s");
+  return result.get();
+}
+
+std::string message_of(const weft::Error& e) { return e.message; }
+
+}  // namespace
+
+TEST_CASE("read_input_file reads a regular file, an empty one, and names a missing one") {
+  TempDir dir;
+  const fs::path file = dir.path / "a.bin", empty = dir.path / "empty.bin";
+  std::ofstream(file, std::ios::binary) << "weft";
+  std::ofstream{empty};
+  auto bytes = weft::read_input_file(file, "test file");
+  REQUIRE(bytes);
+  CHECK(std::string(bytes->begin(), bytes->end()) == "weft");
+  auto none = weft::read_input_file(empty, "test file");
+  REQUIRE(none);
+  CHECK(none->empty());
+  CHECK(weft::check_input_file(file, "test file"));
+  CHECK(weft::check_input_file(empty, "test file"));
+  auto missing = weft::read_input_file(dir.path / "absent.bin", "test file");
+  REQUIRE_FALSE(missing);
+  CHECK(missing.error().kind == weft::ErrorKind::NotFound);
+  CHECK(message_of(missing.error()) == "test file '" + (dir.path / "absent.bin").string() + "' not found");
+  CHECK(weft::check_input_file(dir.path / "absent.bin", "test file").error().kind == weft::ErrorKind::NotFound);
+}
+
+TEST_CASE("read_input_file and check_input_file refuse a FIFO, a folder and a device without waiting") {
+  TempDir dir;
+  const fs::path fifo = dir.path / "scene.json";
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  const auto expect = [](const weft::Error& e, const fs::path& path, const std::string& kind) {
+    CHECK(e.kind == weft::ErrorKind::Io);
+    CHECK_MESSAGE(message_of(e) == "scene file '" + path.string() + "' is " + kind + ", not a regular file", e.message);
+  };
+  {
+    auto r = without_waiting([&] { return weft::read_input_file(fifo, "scene file"); }, fifo);
+    REQUIRE_FALSE(r);
+    expect(r.error(), fifo, "a FIFO");
+    auto c = without_waiting([&] { return weft::check_input_file(fifo, "scene file"); }, fifo);
+    REQUIRE_FALSE(c);
+    expect(c.error(), fifo, "a FIFO");
+  }
+  {
+    auto r = weft::read_input_file(dir.path, "scene file");
+    REQUIRE_FALSE(r);
+    expect(r.error(), dir.path, "a folder");
+  }
+  if (fs::exists("/dev/zero")) {  // never ends: read to the end it would fill the memory
+    auto r = without_waiting([&] { return weft::read_input_file("/dev/zero", "scene file"); }, {});
+    REQUIRE_FALSE(r);
+    expect(r.error(), "/dev/zero", "a character device");
+    // Through a symbolic link with an innocent name, too.
+    fs::create_symlink("/dev/zero", dir.path / "mesh.obj");
+    auto c = weft::check_input_file(dir.path / "mesh.obj", "scene file");
+    REQUIRE_FALSE(c);
+    expect(c.error(), dir.path / "mesh.obj", "a character device");
+  }
 }

@@ -19,6 +19,8 @@
 #include <string>
 #include <string_view>
 #include <vector>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <tinyexr.h>  // declarations only: to write a tiled EXR, which weft.image never writes
 #include <cstdio>  // before jpeglib.h, which uses FILE
@@ -528,6 +530,24 @@ TEST_CASE("a missing file is NotFound naming the path") {
   CHECK(message_has(exr, "missing.exr"));
   // A folder is not an image.
   CHECK(kind_of(weft::image::load_png(dir.path)) == ErrorKind::Io);
+}
+
+TEST_CASE("issue 33: an image path that is a FIFO or a device is an Io error saying so, never a wait") {
+  TempDir dir;
+  ::alarm(30);  // a reader waiting on the FIFO ends the test run (SIGALRM) instead of hanging it
+  for (const char* name : {"photo.png", "photo.jpg", "sky.hdr", "sky.exr"}) {
+    const fs::path fifo = dir / name;
+    REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+    const auto ldr = weft::image::load_ldr(fifo);
+    CHECK(kind_of(ldr) == ErrorKind::Io);
+    CHECK(message_has(ldr, "image file '" + fifo.string() + "' is a FIFO, not a regular file"));
+    const auto any = weft::image::load_float_image(fifo);
+    CHECK(kind_of(any) == ErrorKind::Io);
+    CHECK(message_has(any, "is a FIFO"));
+  }
+  CHECK(message_has(weft::image::load_exr("/dev/zero"), "image file '/dev/zero' is a character device, not a regular file"));
+  CHECK(message_has(weft::image::load_png(dir.path), "is a folder, not a regular file"));
+  ::alarm(0);
 }
 
 TEST_CASE("a truncated PNG is a Parse error naming the path and the decoder's reason") {

@@ -167,3 +167,31 @@ TEST_CASE("bad output sizes are errors, not crashes") {
   REQUIRE(!frame);
   CHECK(frame.error().message.find("100000x10") != std::string::npos);
 }
+
+TEST_CASE("issue 33: a scene camera with NaN or infinity is an error naming the field, for render and describe") {
+  // A scene file's camera is checked when read; one built in code (or a viewer's pose) is not.
+  auto s = load(furnace);
+  s.lights.push_back(scene::DirectionalLight{.name = "sun", .direction = {-0.4f, -1.0f, -0.3f}});
+  struct Case {
+    void (*spoil)(scene::Camera&);
+    const char* expect;
+  };
+  for (const Case& c : {Case{[](scene::Camera& k) { k.position.x = NAN; }, "scene camera: position (nan, 0, 4) is not finite"},
+                        Case{[](scene::Camera& k) { k.target.y = INFINITY; }, "scene camera: target (0, inf, 0) is not finite"},
+                        Case{[](scene::Camera& k) { k.up.z = -INFINITY; }, "scene camera: up (0, 1, -inf) is not finite"},
+                        Case{[](scene::Camera& k) { k.fov_y_degrees = NAN; }, "scene camera: fov nan is not finite"},
+                        Case{[](scene::Camera& k) { k.far = INFINITY; }, "scene camera: far inf is not finite"}}) {
+    scene::Scene bad = s;
+    c.spoil(bad.camera);
+    CAPTURE(c.expect);
+    auto frame = shared_renderer().render(bad, {.width = 32, .height = 32});
+    REQUIRE_FALSE(frame);
+    CHECK(frame.error().kind == ErrorKind::InvalidArgument);
+    CHECK(frame.error().message == c.expect);
+    auto report = shared_renderer().describe(bad, {.width = 32, .height = 32});
+    REQUIRE_FALSE(report);
+    CHECK(report.error().message == c.expect);
+  }
+  // The renderer is fine afterwards.
+  CHECK(shared_renderer().render(s, {.width = 32, .height = 32}));
+}

@@ -2,14 +2,20 @@
 // flat object with nothing visible behind it, seen from the light. Cases that must keep it
 // (something under it, the eye under it, the light grazing or below it, a curved object),
 // and an image rendered with the floor left out equal to the same frame with the floor drawn
-// into the shadow map (the floor made not quite flat, so the rule keeps it).
+// into the shadow map (the floor made not quite flat, so the rule keeps it). And
+// select_shadow_casters, the renderer's selection of every object at once, against the
+// object-by-object answer on random scenes, with its work bounded on 20,000 floor tiles.
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <cstdlib>
+#include <cmath>
 #include <filesystem>
+#include <random>
 #include <string>
 #include <variant>
+#include <vector>
 #include <glm/glm.hpp>
+#include <glm/gtc/matrix_transform.hpp>
 import weft.core;
 import weft.image;
 import weft.scene;
@@ -109,4 +115,159 @@ TEST_CASE("leaving the floor out of the shadow map changes no pixel") {
       if (std::abs(test::channel(a->image, x, y, 0) - test::channel(a->image, x, y, 2)) < 10)
         brighter = std::max(brighter, test::channel(c->image, x, y, 1) - test::channel(a->image, x, y, 1));
   CHECK(brighter > 20);
+}
+
+// ---- select_shadow_casters: every object at once (issue 33: 30,000 lit objects took 48 s) ----
+
+namespace {
+
+// What the renderer did before: each object asked on its own, against every other.
+std::vector<bool> object_by_object(const scene::Scene& s, glm::vec3 towards_light) {
+  std::vector<bool> casts(s.objects.size());
+  for (std::uint32_t i = 0; i < s.objects.size(); ++i) casts[i] = !renderer::shadows_nothing_visible(s, i, towards_light);
+  return casts;
+}
+
+// A random scene of floors, tiles, cards tilted in their own space, cubes and balls above,
+// on and under the floor, some sunk into it, with standard and feature materials, the eye
+// above or below and the sun from any side: the cases of the rule, mixed.
+scene::Scene random_scene(std::mt19937& rng, std::uint32_t objects) {
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f), sym(-1.0f, 1.0f);
+  scene::Scene s;
+  s.meshes.push_back(*scene::make_plane(4.0f, 2));
+  s.meshes.push_back(*scene::make_plane(0.5f, 1));
+  s.meshes.push_back(*scene::make_cube(0.4f));
+  s.meshes.push_back(*scene::make_sphere(0.2f, 8));
+  scene::Mesh card = *scene::make_plane(0.6f, 1);  // flat, but tilted in its own space: a 3-D box
+  card.bounds = {};
+  for (glm::vec3& p : card.positions) {
+    p = glm::vec3(p.x, 0.5f * p.x + 0.25f * p.z, p.z);
+    card.bounds.extend(p);
+  }
+  s.meshes.push_back(card);
+  s.materials.push_back(scene::Material{.name = "standard"});
+  s.materials.push_back(scene::Material{.name = "feature", .type = "some_feature"});
+  for (std::uint32_t i = 0; i < objects; ++i) {
+    const std::uint32_t mesh = i == 0 ? 0u : std::uint32_t(rng() % s.meshes.size());
+    const float height = unit(rng) < 0.3f ? 0.0f : unit(rng) < 0.5f ? sym(rng) * 0.15f : sym(rng) * 2.0f;
+    scene::Transform t{.translation = {sym(rng) * 3.0f, height, sym(rng) * 3.0f}};
+    if (unit(rng) < 0.3f) t.rotation = scene::Transform::rotation_from_euler_degrees({sym(rng) * 30.0f, sym(rng) * 180.0f, 0.0f});
+    s.objects.push_back({.name = "o" + std::to_string(i), .mesh = mesh, .material = unit(rng) < 0.85f ? 0u : 1u,
+                         .transform = t.matrix()});
+  }
+  s.camera.position = {sym(rng) * 4.0f, unit(rng) < 0.8f ? 1.0f + 3.0f * unit(rng) : -2.0f, 4.0f + unit(rng)};
+  s.camera.target = {0.0f, 0.0f, 0.0f};
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("select_shadow_casters gives the object-by-object answer on random scenes") {
+  std::mt19937 rng(33);
+  std::uniform_real_distribution<float> sym(-1.0f, 1.0f);
+  int left_out = 0, kept_flat = 0;
+  for (int trial = 0; trial < 1000; ++trial) {
+    const scene::Scene s = random_scene(rng, 1 + std::uint32_t(rng() % 60));
+    glm::vec3 sun(sym(rng), -1.0f + 0.3f * sym(rng), sym(rng));
+    if (trial % 7 == 0) sun = -sun;  // from below
+    if (trial % 11 == 0) sun = {1.0f, 0.0f, 0.0f};  // grazing the floors
+    const glm::vec3 towards = -sun;
+    CAPTURE(trial);
+    const std::vector<bool> reference = object_by_object(s, towards);
+    renderer::ShadowCasterStats stats;
+    const std::vector<bool> casts = renderer::select_shadow_casters(s, towards, &stats);
+    REQUIRE(casts.size() == s.objects.size());
+    for (std::size_t i = 0; i < casts.size(); ++i) {
+      CAPTURE(i);
+      CHECK(casts[i] == reference[i]);
+      left_out += !casts[i];
+    }
+    kept_flat += int(stats.flat_objects) - int(std::count(casts.begin(), casts.end(), false));
+  }
+  // Both answers came up often, so the comparison says something.
+  MESSAGE("left out " << left_out << ", flat and kept " << kept_flat);
+  CHECK(left_out > 100);
+  CHECK(kept_flat > 100);
+}
+
+TEST_CASE("select_shadow_casters agrees with the reference on the rule's own cases (a sunk ball hidden, or not)") {
+  struct Case {
+    glm::vec3 ball, eye, sun;
+    std::string rotation;
+  };
+  const glm::vec3 sun{-0.4f, -1.0f, -0.3f};
+  for (const Case& c : {Case{{0.0f, 0.5f, 0.0f}, {0.0f, 2.0f, 3.0f}, sun, "[0, 0, 0]"},
+                        Case{{0.0f, 0.1f, 0.0f}, {0.0f, 2.0f, 3.0f}, sun, "[0, 0, 0]"},    // sunk, hidden by the floor
+                        Case{{0.0f, 0.1f, 0.0f}, {0.0f, -2.0f, 3.0f}, sun, "[0, 0, 0]"},   // seen from below
+                        Case{{3.0f, -0.5f, 0.0f}, {0.0f, 2.0f, 3.0f}, sun, "[0, 0, 0]"},   // past the floor's edge
+                        Case{{0.0f, 0.5f, 0.0f}, {0.0f, 2.0f, 3.0f}, {0.2f, 1.0f, 0.1f}, "[0, 0, 0]"},
+                        Case{{0.0f, 0.5f, 0.0f}, {0.0f, 2.0f, 3.0f}, {1.0f, 0.0f, 0.0f}, "[0, 0, 0]"},
+                        Case{{0.0f, 0.5f, 0.0f}, {0.0f, 2.0f, 3.0f}, sun, "[20, 0, 0]"}}) {
+    const scene::Scene s = test::load(floor_and_ball(c.ball, c.eye, c.sun, c.rotation));
+    CAPTURE(c.ball.y);
+    CAPTURE(c.eye.y);
+    const std::vector<bool> casts = renderer::select_shadow_casters(s, towards(s));
+    REQUIRE(casts.size() == 2);
+    CHECK(casts[0] == !renderer::shadows_nothing_visible(s, 0, towards(s)));
+    CHECK(casts[1]);  // the ball is not flat
+  }
+  // The sunk ball seen from above: left out although the ball dips under the floor.
+  const scene::Scene sunk = test::load(floor_and_ball({0.0f, 0.1f, 0.0f}, {0.0f, 2.0f, 3.0f}));
+  renderer::ShadowCasterStats stats;
+  CHECK_FALSE(renderer::select_shadow_casters(sunk, towards(sunk), &stats)[0]);
+  CHECK(stats.boxes_tested == 1);  // the ball's box was given the hiding test
+}
+
+TEST_CASE("select_shadow_casters: an empty scene, boxes that are empty or not finite, as the reference says") {
+  scene::Scene s;
+  CHECK(renderer::select_shadow_casters(s, {0.0f, 1.0f, 0.0f}).empty());
+  s.meshes.push_back(*scene::make_plane(4.0f, 1));
+  s.meshes.push_back(*scene::make_cube(0.5f));
+  scene::Mesh empty;  // no vertices: an empty box, no obstacle
+  s.meshes.push_back(empty);
+  s.materials.push_back(scene::Material{.name = "standard"});
+  s.camera.position = {0.0f, 2.0f, 3.0f};
+  s.objects.push_back({.name = "floor", .mesh = 0, .material = 0});
+  s.objects.push_back({.name = "cube", .mesh = 1, .material = 0, .transform = glm::translate(glm::mat4(1.0f), {0.0f, 1.0f, 0.0f})});
+  s.objects.push_back({.name = "nothing", .mesh = 2, .material = 0});
+  const glm::vec3 towards{0.3f, 1.0f, 0.2f};
+  CHECK(renderer::select_shadow_casters(s, towards) == std::vector<bool>{false, true, true});
+  CHECK(renderer::select_shadow_casters(s, towards) == object_by_object(s, towards));
+  // A box with a NaN corner is tested on its own, exactly (it keeps the floor).
+  scene::Object broken{.name = "broken", .mesh = 1, .material = 0, .transform = glm::mat4(1.0f)};
+  broken.transform[3][1] = std::nanf("");
+  s.objects.push_back(broken);
+  CHECK(renderer::select_shadow_casters(s, towards) == object_by_object(s, towards));
+}
+
+TEST_CASE("select_shadow_casters tests a box per flat object or so, not every other box (20,000 floor tiles)") {
+  // A floor of 20,000 tiles with a cube over every tenth: each tile shadows nothing. Asked
+  // object by object that is 20,000 x 21,999 box tests; the hierarchy skips the boxes above
+  // the floor a node at a time.
+  scene::Scene s;
+  s.meshes.push_back(*scene::make_plane(1.0f, 1));
+  s.meshes.push_back(*scene::make_cube(0.3f));
+  s.materials.push_back(scene::Material{.name = "standard"});
+  const std::uint32_t side = 200, tiles = side * 100;
+  for (std::uint32_t i = 0; i < tiles; ++i) {
+    const glm::vec3 at(float(i % side) - 100.0f, 0.0f, float(i / side) - 50.0f);
+    s.objects.push_back({.name = "tile", .mesh = 0, .material = 0, .transform = glm::translate(glm::mat4(1.0f), at)});
+    if (i % 10 == 0)
+      s.objects.push_back({.name = "cube", .mesh = 1, .material = 0,
+                           .transform = glm::translate(glm::mat4(1.0f), at + glm::vec3(0.0f, 0.5f, 0.0f))});
+  }
+  s.camera.position = {0.0f, 30.0f, 80.0f};
+  renderer::ShadowCasterStats stats;
+  const std::vector<bool> casts = renderer::select_shadow_casters(s, {0.3f, 1.0f, 0.2f}, &stats);
+  CHECK(stats.flat_objects == tiles);
+  CHECK(stats.boxes_tested <= 64ull * tiles);
+  for (std::uint32_t i = 0; i < s.objects.size(); ++i) {
+    if (casts[i] != (s.objects[i].name == "cube")) {
+      CHECK_MESSAGE(false, "object " << i << " (" << s.objects[i].name << ") casts: " << casts[i]);
+      break;
+    }
+  }
+  // A sample of the tiles, asked one by one, agrees.
+  for (std::uint32_t i = 0; i < s.objects.size(); i += 997)
+    CHECK(casts[i] == !renderer::shadows_nothing_visible(s, i, {0.3f, 1.0f, 0.2f}));
 }

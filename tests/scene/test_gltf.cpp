@@ -9,6 +9,8 @@
 #include <string>
 #include <variant>
 #include <vector>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <glm/glm.hpp>
 
@@ -365,4 +367,25 @@ TEST_CASE("glTF: errors name the file and what is wrong") {
     REQUIRE_FALSE(s.has_value());
     CHECK(s.error().kind == ErrorKind::NotFound);
   }
+}
+
+TEST_CASE("issue 33: a glTF whose buffer is a FIFO, or a mesh file that is one, is an error saying so, never a wait") {
+  TempDir dir;
+  ::alarm(30);  // a reader waiting on a FIFO ends the test run (SIGALRM) instead of hanging it
+  REQUIRE(::mkfifo((dir / "buffer.bin").c_str(), 0600) == 0);
+  nlohmann::json doc = nlohmann::json::parse(gltf_json());
+  doc["buffers"][0]["uri"] = "buffer.bin";
+  write_file(dir / "fifo_buffer.gltf", doc.dump());
+  auto s = sc::load_gltf(dir / "fifo_buffer.gltf");
+  REQUIRE_FALSE(s.has_value());
+  CHECK_MESSAGE(contains(s.error().message, "buffer.bin' is a FIFO, not a regular file"), s.error().message);
+  for (const char* name : {"m.obj", "m.ply", "m.off", "m.stl", "m.glb"}) {
+    REQUIRE(::mkfifo((dir / name).c_str(), 0600) == 0);
+    auto mesh = sc::load_mesh(dir / name);
+    REQUIRE_FALSE(mesh.has_value());
+    CHECK(mesh.error().kind == ErrorKind::Io);
+    CHECK_MESSAGE(mesh.error().message == "mesh file '" + (dir / name).string() + "' is a FIFO, not a regular file",
+                  mesh.error().message);
+  }
+  ::alarm(0);
 }

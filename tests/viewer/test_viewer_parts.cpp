@@ -103,3 +103,59 @@ TEST_CASE("a bad script line is an error naming the file, the line and the fault
   CHECK(error_of("knob skin lut.range full\n") ==
         "session.txt:1: knob value 'full' is not JSON (numbers, true/false, or \"quoted\" text)");
 }
+
+TEST_CASE("issue 33: a script's non-finite numbers are refused, naming the line (orbit nan nan hung the viewer)") {
+  auto error_of = [](const std::string& text) {
+    auto script = weft::viewer::parse_script("session.txt", text);
+    REQUIRE_FALSE(script);
+    return script.error().message;
+  };
+  CHECK(error_of("orbit 10 0\norbit nan nan\n") == "session.txt:2: 'orbit' expects finite numbers, got 'nan': orbit DYAW DPITCH");
+  CHECK(error_of("pan inf -inf\n") == "session.txt:1: 'pan' expects finite numbers, got 'inf': pan RIGHT UP");
+  CHECK(error_of("pan 0 -infinity\n") == "session.txt:1: 'pan' expects finite numbers, got '-infinity': pan RIGHT UP");
+  CHECK(error_of("zoom nan\n") == "session.txt:1: 'zoom' expects finite numbers, got 'nan': zoom FACTOR");
+  CHECK(error_of("fly 0 NaN 0\n") == "session.txt:1: 'fly' expects finite numbers, got 'NaN': fly FORWARD RIGHT UP");
+  CHECK(error_of("budget inf\n") == "session.txt:1: 'budget' expects finite numbers, got 'inf': budget MILLISECONDS");
+  CHECK(error_of("wait nan\n") == "session.txt:1: 'wait' expects finite numbers, got 'nan': wait FRAMES");
+  // Huge but finite numbers are numbers; the camera decides what to do with them (below).
+  CHECK(weft::viewer::parse_script("session.txt", "orbit 1e30 -1e30\npan 1e38 1e38\nfly 1e38 0 0\n"));
+}
+
+TEST_CASE("issue 33: the orbit camera's pose stays finite whatever it is asked") {
+  const auto finite = [](const CameraPose& p) {
+    return std::isfinite(p.position.x) && std::isfinite(p.position.y) && std::isfinite(p.position.z) &&
+           std::isfinite(p.target.x) && std::isfinite(p.target.y) && std::isfinite(p.target.z);
+  };
+  OrbitCamera camera(start);
+  const CameraPose before = camera.pose();
+  // Non-finite arguments are refused and change nothing.
+  CHECK_FALSE(camera.orbit(NAN, NAN));
+  CHECK_FALSE(camera.orbit(0.0f, INFINITY));
+  CHECK_FALSE(camera.pan(INFINITY, -INFINITY));
+  CHECK_FALSE(camera.pan(NAN, 0.0f));
+  CHECK_FALSE(camera.zoom(NAN));
+  CHECK_FALSE(camera.zoom(INFINITY));
+  CHECK_FALSE(camera.fly(NAN, 0.0f, 0.0f));
+  CHECK_FALSE(camera.fly(0.0f, 0.0f, -INFINITY));
+  CHECK(camera.pose() == before);
+  // Finite arguments whose move would overflow are refused too: the pose stays finite.
+  CHECK_FALSE(camera.pan(3e38f, 3e38f));
+  CHECK_FALSE(camera.fly(3e38f, 0.0f, 0.0f));
+  for (int i = 0; i < 100; ++i) camera.zoom(1e30f);  // refused once the distance would overflow
+  CHECK(finite(camera.pose()));
+  CHECK(std::isfinite(camera.distance()));
+  // Huge finite orbits turn the camera and keep it finite and at its distance.
+  OrbitCamera spun(start);
+  CHECK(spun.orbit(1e30f, -1e30f));
+  CHECK(finite(spun.pose()));
+  CHECK(glm::length(spun.pose().position - spun.pose().target) == doctest::Approx(glm::length(start.position - start.target)).epsilon(1e-4));
+  // The moves a user makes still work after a refused one.
+  CHECK(camera.orbit(10.0f, 5.0f));
+  CHECK(camera.pan(0.1f, 0.0f));
+  CHECK(finite(camera.pose()));
+  // A start that is not finite (a scene built in code) gives a finite camera, not a NaN view.
+  OrbitCamera from_nan({{NAN, 0.0f, 1.0f}, {0.0f, INFINITY, 0.0f}});
+  CHECK(finite(from_nan.pose()));
+  CHECK(from_nan.orbit(30.0f, 10.0f));
+  CHECK(finite(from_nan.pose()));
+}

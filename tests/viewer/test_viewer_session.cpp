@@ -13,6 +13,7 @@
 #include <iterator>
 #include <string>
 #include <vector>
+#include <sys/stat.h>
 #include <unistd.h>
 import weft.core;
 import weft.image;
@@ -213,6 +214,40 @@ TEST_CASE("hot reload: a changed colour shows, invalid JSON is reported and the 
   CHECK(difference(shot("b.png"), shot("c.png")).max == 0);
   // Fixed again: back to the first image.
   CHECK(difference(shot("a.png"), shot("d.png")).max <= 1);
+}
+
+TEST_CASE("issue 33: hot reload to a scene whose mesh is a FIFO is an error naming it; the frame stays, nothing waits") {
+  require_display();
+  const fs::path live = scratch() / "fifo_live.json", fifo = scratch() / "fifo_mesh.obj";
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  std::string with_fifo = ball_scene("[0.05, 0.1, 0.8]");
+  const std::string primitive = R"({"primitive": "sphere", "radius": 0.3, "segments": 32})";
+  with_fifo.replace(with_fifo.find(primitive), primitive.size(), R"({"path": ")" + fifo.string() + R"("})");
+  write(scratch() / "fifo_red.json", ball_scene("[0.8, 0.1, 0.05]"));
+  write(scratch() / "fifo_scene.json", with_fifo);
+  fs::copy_file(scratch() / "fifo_red.json", live, fs::copy_options::overwrite_existing);
+  auto shot = [&](const char* name) { return (scratch() / name).string(); };
+  write(scratch() / "fifo.txt", "ui off\nrefine\nscreenshot " + shot("f_a.png") + "\n" +
+                                "copy " + shot("fifo_scene.json") + " " + live.string() + "\nwait 3\nrefine\nscreenshot " + shot("f_b.png") + "\nquit\n");
+  // `timeout`: a viewer that waits on the FIFO fails here (124) instead of hanging the suite.
+  auto r = run("timeout 120 " + weft_cli() + " view " + live.string() + " --size 160x120 --script " + (scratch() / "fifo.txt").string());
+  INFO(r.output);
+  REQUIRE(r.code == 0);
+  CHECK(r.output.find("2 screenshot(s)") != std::string::npos);
+  CHECK(r.output.find("reload of " + live.string() + " failed") != std::string::npos);
+  CHECK(r.output.find(fifo.string() + "' is a FIFO, not a regular file") != std::string::npos);
+  CHECK(difference(shot("f_a.png"), shot("f_b.png")).max == 0);  // the last good frame
+}
+
+TEST_CASE("issue 33: a script line with NaN or infinity is refused before the window opens") {
+  write(scratch() / "nan.txt", "orbit 10 0\norbit nan nan\nquit\n");
+  write(scratch() / "nan.json", ball_scene("[0.8, 0.1, 0.05]"));
+  auto r = run("timeout 60 " + weft_cli() + " view " + (scratch() / "nan.json").string() + " --size 160x120 --script " +
+               (scratch() / "nan.txt").string());
+  INFO(r.output);
+  CHECK(r.code != 0);
+  CHECK(r.code != 124);
+  CHECK(r.output.find("nan.txt:2: 'orbit' expects finite numbers, got 'nan'") != std::string::npos);
 }
 
 TEST_CASE("compare with reference: the reference setting against itself is exact, a coarse skin LUT is not") {

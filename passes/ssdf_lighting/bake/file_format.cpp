@@ -292,12 +292,7 @@ Result<void> write_file(const std::filesystem::path& path, const Asset& asset) {
 }
 
 Result<Asset> read_file(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return fail(ErrorKind::NotFound, "SSDF file '{}' not found", path.string());
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return fail(ErrorKind::Io, "cannot open '{}'", path.string());
-  std::vector<char> data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) return fail(ErrorKind::Io, "reading '{}' failed", path.string());
+  WEFT_TRY(auto data, read_input_file(path, "SSDF file"));
   const std::string source = path.string();
   return decode(std::as_bytes(std::span(data)), source);
 }

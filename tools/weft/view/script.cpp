@@ -2,6 +2,7 @@
 // typo on line 40 does not surface after a minute of rendering.
 module;
 #include <charconv>
+#include <cmath>
 #include <expected>
 #include <filesystem>
 #include <map>
@@ -41,6 +42,10 @@ bool is_number(const std::string& s) {
   auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
   return ec == std::errc() && end == s.data() + s.size();
 }
+
+// from_chars also reads "nan", "inf" and "-infinity", which no camera move, size or budget
+// can mean (`orbit nan nan` left the view's pose NaN; issue 33).
+bool is_finite_number(const std::string& s) { return is_number(s) && std::isfinite(std::stof(s)); }
 }  // namespace
 
 Result<Script> parse_script(const std::filesystem::path& path, const std::string& text) {
@@ -71,8 +76,10 @@ Result<Script> parse_script(const std::filesystem::path& path, const std::string
     const std::string& n = command.name;
     const bool numeric = n == "orbit" || n == "pan" || n == "zoom" || n == "fly" || n == "resize" || n == "wait" || n == "budget";
     if (numeric)
-      for (const auto& arg : command.args)
+      for (const auto& arg : command.args) {
         if (!is_number(arg)) return bad("'" + n + "' expects numbers, got '" + arg + "': " + a.usage);
+        if (!is_finite_number(arg)) return bad("'" + n + "' expects finite numbers, got '" + arg + "': " + a.usage);
+      }
     if (n == "zoom" && std::stof(command.args[0]) <= 0.0f) return bad("zoom factor must be > 0");
     if (n == "budget" && !(std::stof(command.args[0]) > 0.0f)) return bad("budget must be a positive number of milliseconds");
     if (n == "resize" && (std::stoi(command.args[0]) < 1 || std::stoi(command.args[1]) < 1 ||

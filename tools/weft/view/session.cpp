@@ -142,11 +142,9 @@ Result<void> Session::open() {
   else
     return std::unexpected(q.error());
   if (options.script) {
-    std::ifstream in(*options.script);
-    if (!in) return fail(ErrorKind::Io, "cannot read script '{}'", options.script->string());
-    std::stringstream text;
-    text << in.rdbuf();
-    auto parsed = parse_script(*options.script, text.str());
+    auto text = read_input_file(*options.script, "script");
+    if (!text) return std::unexpected(text.error());
+    auto parsed = parse_script(*options.script, std::string(text->begin(), text->end()));
     if (!parsed) return std::unexpected(parsed.error());
     script = std::move(*parsed);
   }
@@ -237,26 +235,31 @@ void Session::step_script() {
   while (script_next < script->commands.size()) {
     const ScriptCommand& c = script->commands[script_next++];
     const auto& a = c.args;
-    auto camera_moved = [&] { last_motion = Clock::now(); };
+    // A move the camera refuses (it would leave finite space: `pan 1e38 1e38`) is a warning
+    // naming the line; the view stays where it was.
+    auto camera_moved = [&](bool applied) {
+      last_motion = Clock::now();
+      if (applied) return;
+      std::string line = c.name;
+      for (const auto& arg : a) line += " " + arg;
+      error = weft::format("{}:{}: '{}' ignored: the camera would leave finite space", script->path.string(), c.line, line);
+      log::warn(error);
+    };
     if (c.name == "orbit") {
-      camera->orbit(number(a[0]), number(a[1]));
-      camera_moved();
+      camera_moved(camera->orbit(number(a[0]), number(a[1])));
       return;  // one camera step per frame, as a dragging user would
     } else if (c.name == "pan") {
-      camera->pan(number(a[0]), number(a[1]));
-      camera_moved();
+      camera_moved(camera->pan(number(a[0]), number(a[1])));
       return;
     } else if (c.name == "zoom") {
-      camera->zoom(number(a[0]));
-      camera_moved();
+      camera_moved(camera->zoom(number(a[0])));
       return;
     } else if (c.name == "fly") {
-      camera->fly(number(a[0]), number(a[1]), number(a[2]));
-      camera_moved();
+      camera_moved(camera->fly(number(a[0]), number(a[1]), number(a[2])));
       return;
     } else if (c.name == "reset") {
       camera->reset();
-      camera_moved();
+      camera_moved(true);
     } else if (c.name == "knob") {
       auto it = std::find_if(scene.materials.begin(), scene.materials.end(), [&](auto& m) { return m.name == a[0]; });
       if (it == scene.materials.end()) {

@@ -111,6 +111,8 @@ std::optional<ShaderWatch::Reload> ShaderWatch::poll() {
 
 Result<std::vector<std::uint32_t>> ShaderWatch::compile(const std::string& name) const {
   const fs::path source = compile_file_.at(name);
+  // glslangValidator would wait forever on a shader saved as a FIFO, and the viewer with it.
+  if (auto ok = check_input_file(source, "shader"); !ok) return std::unexpected(ok.error());
   const fs::path out = fs::temp_directory_path() / weft::format("weft-view-{}-{}.spv", ::getpid(), name);
   std::string command = weft::format("{} --quiet -V --target-env vulkan1.3", quoted(WEFT_GLSLANG_VALIDATOR));
   if (folder_) command += " -I" + quoted(*folder_);

@@ -39,16 +39,21 @@ struct CameraPose {
 class OrbitCamera {
  public:
   explicit OrbitCamera(CameraPose start);
-  void orbit(float yaw_degrees, float pitch_degrees);  // pitch stays within ±89°
-  void pan(float right, float up);
-  void zoom(float factor);  // distance *= factor (ignored unless finite and > 0)
-  void fly(float forward, float right, float up);
+  // Each move returns false and leaves the camera as it was when an argument is not finite,
+  // or when the move would take the pose out of finite space (`pan 1e38 1e38`): the pose is
+  // always finite, so a script or replay cannot hand the renderer a NaN camera.
+  bool orbit(float yaw_degrees, float pitch_degrees);  // pitch stays within ±89°
+  bool pan(float right, float up);
+  bool zoom(float factor);  // distance *= factor (ignored unless finite and > 0)
+  bool fly(float forward, float right, float up);
   void reset() { *this = OrbitCamera(start_); }
   [[nodiscard]] CameraPose pose() const;
   [[nodiscard]] float distance() const { return distance_; }
 
  private:
   [[nodiscard]] glm::vec3 forward() const;
+  // Keeps the move when the pose it gives is finite; otherwise goes back to `before`.
+  bool keep_if_finite(const OrbitCamera& before);
   CameraPose start_;
   glm::vec3 target_{0.0f};
   float distance_ = 1.0f, yaw_ = 0.0f, pitch_ = 0.0f;  // radians

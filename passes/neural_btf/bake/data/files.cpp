@@ -230,6 +230,7 @@ T get(const std::byte* p) {
 
 Result<Btf> load_raw(const fs::path& file, const Crop& crop_rect) {
   const std::string name = file.string();
+  WEFT_TRY_VOID(check_input_file(file, "BTF file"));
   std::ifstream in(file, std::ios::binary);
   if (!in) return fail(ErrorKind::NotFound, "cannot open BTF file '{}'", name);
   std::error_code ec;

@@ -414,13 +414,7 @@ Result<void> save_wbtf(const NeuralBtf& model, const std::filesystem::path& path
 }
 
 Result<NeuralBtf> load_wbtf(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec))
-    return fail(ErrorKind::NotFound, "neural BTF file '{}' not found", path.string());
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return fail(ErrorKind::Io, "cannot open '{}'", path.string());
-  std::vector<char> data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) return fail(ErrorKind::Io, "reading '{}' failed", path.string());
+  WEFT_TRY(auto data, read_input_file(path, "neural BTF file"));
   return decode_wbtf(std::as_bytes(std::span(data)), path.string());
 }
 

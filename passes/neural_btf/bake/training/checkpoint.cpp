@@ -93,11 +93,10 @@ Result<void> save_checkpoint(const std::filesystem::path& file, const TrainState
 }
 
 Result<TrainState> load_checkpoint(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) return fail(ErrorKind::Io, "checkpoint {}: cannot open", file.string());
-  std::vector<char> chars((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  std::vector<std::byte> data(chars.size());
-  if (!chars.empty()) std::memcpy(data.data(), chars.data(), chars.size());  // memcpy(null, ..., 0) is UB
+  auto chars = read_input_file(file, "checkpoint");
+  if (!chars) return std::unexpected(chars.error());
+  std::vector<std::byte> data(chars->size());
+  if (!chars->empty()) std::memcpy(data.data(), chars->data(), chars->size());  // memcpy(null, ..., 0) is UB
   if (data.size() < sizeof kMagic + sizeof(std::uint64_t) || std::memcmp(data.data(), kMagic, sizeof kMagic) != 0)
     return fail(ErrorKind::Parse, "checkpoint {}: not a weft training checkpoint (magic WEFTBTCK missing)", file.string());
   const std::size_t body = data.size() - sizeof(std::uint64_t);
