@@ -103,7 +103,7 @@ int run(int argc, char** argv) {
   }
 
   // The application registers what it links: weft's features, then its own.
-  if (auto ok = register_builtin_features(); !ok) return failed(ok.error().what());
+  if (auto ok = register_builtins(); !ok) return failed(ok.error().what());  // pass types and features
   if (auto ok = register_feature(custom::toon_feature()); !ok) return failed(ok.error().what());
   if (list) print_features();
   if (scene_path.empty()) return list ? 0 : failed("a scene file is required (see --help)");

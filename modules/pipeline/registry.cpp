@@ -191,7 +191,7 @@ std::vector<const PassTypeDescriptor*> PassTypeRegistry::all() const {
 std::string PassTypeRegistry::names() const {
   std::string out;
   for (const auto* d : all()) out += (out.empty() ? "" : ", ") + d->name;
-  return out.empty() ? "none registered" : out;
+  return out.empty() ? "none" : out;
 }
 
 PassTypeRegistry& pass_type_registry() {

@@ -94,7 +94,13 @@ TEST_CASE("a bad script line is an error naming the file, the line and the fault
   CHECK(error_of("zoom\n") == "session.txt:1: 'zoom' takes 1 argument(s): zoom FACTOR");
   CHECK(error_of("pan 1 up\n") == "session.txt:1: 'pan' expects numbers, got 'up': pan RIGHT UP");
   CHECK(error_of("zoom -2\n") == "session.txt:1: zoom factor must be > 0");
-  CHECK(error_of("resize 0 10\n") == "session.txt:1: resize needs sizes within 1..16384");
+  CHECK(error_of("resize 0 10\n") == "session.txt:1: resize needs whole sizes within 1..16384");
+  // Numbers past int's range were std::stoi's uncaught out_of_range (a crash).
+  CHECK(error_of("resize 99999999999 5\n") == "session.txt:1: resize needs whole sizes within 1..16384");
+  CHECK(error_of("resize 64.5 48\n") == "session.txt:1: resize needs whole sizes within 1..16384");
+  CHECK(error_of("wait 1e12\n") == "session.txt:1: wait needs a whole number of frames within 0..1000000");
+  CHECK(error_of("zoom 1e39\n") == "session.txt:1: 'zoom' expects finite numbers, got '1e39': zoom FACTOR");
+  CHECK(error_of("show\n").find("'show' takes 1 argument(s)") != std::string::npos);
   CHECK(error_of("ui maybe\n") == "session.txt:1: ui takes on or off");
   CHECK(error_of("budget 0\n") == "session.txt:1: budget must be a positive number of milliseconds");
   CHECK(error_of("budget -5\n") == "session.txt:1: budget must be a positive number of milliseconds");

@@ -40,12 +40,29 @@ const std::map<std::string, Arity, std::less<>>& commands() {
 bool is_number(const std::string& s) {
   float v = 0;
   auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
-  return ec == std::errc() && end == s.data() + s.size();
+  // 1e39 is a number, if not a float: is_finite_number refuses it with the better message.
+  return (ec == std::errc() || ec == std::errc::result_out_of_range) && end == s.data() + s.size();
 }
 
 // from_chars also reads "nan", "inf" and "-infinity", which no camera move, size or budget
 // can mean (`orbit nan nan` left the view's pose NaN; issue 33).
-bool is_finite_number(const std::string& s) { return is_number(s) && std::isfinite(std::stof(s)); }
+bool is_finite_number(const std::string& s) {
+  float v = 0;
+  auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  return ec == std::errc() && end == s.data() + s.size() && std::isfinite(v);
+}
+// The value of an argument is_finite_number accepted (no exception: from_chars, not stoi).
+double value_of(const std::string& s) {
+  double v = 0;
+  std::from_chars(s.data(), s.data() + s.size(), v);
+  return v;
+}
+// A whole number within [lo, hi]: `resize 99999999999 5` was an uncaught std::out_of_range
+// from std::stoi (a crash; issue 33).
+bool whole_within(const std::string& s, double lo, double hi) {
+  const double v = value_of(s);
+  return v >= lo && v <= hi && v == std::floor(v);
+}
 }  // namespace
 
 Result<Script> parse_script(const std::filesystem::path& path, const std::string& text) {
@@ -80,11 +97,11 @@ Result<Script> parse_script(const std::filesystem::path& path, const std::string
         if (!is_number(arg)) return bad("'" + n + "' expects numbers, got '" + arg + "': " + a.usage);
         if (!is_finite_number(arg)) return bad("'" + n + "' expects finite numbers, got '" + arg + "': " + a.usage);
       }
-    if (n == "zoom" && std::stof(command.args[0]) <= 0.0f) return bad("zoom factor must be > 0");
-    if (n == "budget" && !(std::stof(command.args[0]) > 0.0f)) return bad("budget must be a positive number of milliseconds");
-    if (n == "resize" && (std::stoi(command.args[0]) < 1 || std::stoi(command.args[1]) < 1 ||
-                          std::stoi(command.args[0]) > 16384 || std::stoi(command.args[1]) > 16384))
-      return bad("resize needs sizes within 1..16384");
+    if (n == "zoom" && value_of(command.args[0]) <= 0.0) return bad("zoom factor must be > 0");
+    if (n == "budget" && !(value_of(command.args[0]) > 0.0)) return bad("budget must be a positive number of milliseconds");
+    if (n == "resize" && (!whole_within(command.args[0], 1, 16384) || !whole_within(command.args[1], 1, 16384)))
+      return bad("resize needs whole sizes within 1..16384");
+    if (n == "wait" && !whole_within(command.args[0], 0, 1e6)) return bad("wait needs a whole number of frames within 0..1000000");
     if ((n == "ui" || n == "overlay") && command.args[0] != "on" && command.args[0] != "off")
       return bad(n + " takes on or off");
     if (n == "knob" && !nlohmann::json::accept(command.args[2]))
