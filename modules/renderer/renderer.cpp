@@ -546,6 +546,10 @@ Result<RenderGraph*> Renderer::State::build_graph(const scene::Scene& scene, con
   for (const auto& name : by_name) {
     const TextureHandle handle = graph.find_texture(name);
     if (!handle) {
+      for (std::uint32_t i = 0; i < graph.resource_count(); ++i)
+        if (graph.resource_name(i) == name)
+          return fail(ErrorKind::Unsupported, "--output '{}': that resource is a buffer; only textures are written as "
+                      "images", name);
       std::set<std::string> names;
       for (std::uint32_t i = 0; i < graph.resource_count(); ++i) names.insert(std::string(graph.resource_name(i)));
       std::string slots, resources;

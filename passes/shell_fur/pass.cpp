@@ -45,7 +45,8 @@ FurPush push_constants(const ShellFurDraw& d) {
 Result<gpu::Texture> upload_texture(gpu::Device& device, std::string label, std::uint32_t w, std::uint32_t h,
                                     gpu::Format format, std::span<const std::uint8_t> texels) {
   WEFT_TRY(auto texture, device.create_texture({.label = std::move(label), .size = {w, h, 1}, .format = format,
-                                          .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst}));
+                                          .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst |
+                                                   gpu::TextureUsage::CopySrc}));  // CopySrc: `weft render --output` reads it
   WEFT_TRY_VOID(device.queue().write_texture(texture, std::as_bytes(texels)));
   return std::move(texture);
 }

@@ -29,7 +29,8 @@ namespace {
 Result<gpu::Texture> upload_rgba8(gpu::Device& device, std::string_view label, std::uint32_t w, std::uint32_t h,
                                   gpu::Format format, std::span<const std::uint8_t> rgba) {
   WEFT_TRY(auto t, device.create_texture({.label = std::string(label), .size = {w, h, 1}, .format = format,
-                                    .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst}));
+                                    .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst |
+                                                   gpu::TextureUsage::CopySrc}));  // CopySrc: `weft render --output` reads it
   WEFT_TRY_VOID(device.queue().write_texture(t, std::as_bytes(rgba)));
   return std::move(t);
 }
@@ -40,7 +41,8 @@ Result<gpu::Texture> upload_lut(gpu::Device& device, const skin::SkinLut& lut) {
     for (int c = 0; c < 4; ++c) half[i * 4 + c] = glm::packHalf1x16(lut.texels[i][c]);
   WEFT_TRY(auto t, device.create_texture({.label = "skin_lut_" + hex64(lut.hash), .size = {lut.width, lut.height, 1},
                                     .format = gpu::Format::RGBA16Float,
-                                    .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst}));
+                                    .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst |
+                                                   gpu::TextureUsage::CopySrc}));  // CopySrc: `weft render --output` reads it
   WEFT_TRY_VOID(device.queue().write_texture(t, std::as_bytes(std::span(half))));
   return std::move(t);
 }

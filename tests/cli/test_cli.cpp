@@ -371,3 +371,82 @@ TEST_CASE("issue 33: weft-bench-objects answers --help without work, refuses bad
   CHECK_MESSAGE(contains(r.output, "| yes |"), r.output);
   CHECK_FALSE(contains(r.output, "| NO |"));
 }
+
+TEST_CASE("weft render --output writes any resource: depth, the shadow map and an intermediate of every feature") {
+  const char* source = std::getenv("WEFT_SOURCE_DIR");
+  REQUIRE(source);
+  const auto dir = temp_dir();
+  const std::string showcase = std::string(source) + "/examples/scenes/showcase.json";
+  // (resource, what it is): the showcase has all four features.
+  const std::vector<std::pair<std::string, std::string>> resources = {
+      {"scene.depth", "the camera's depth"},          {"shadow_map.depth", "the key light's depth"},
+      {"background.color", "the linear scene colour"}, {"neural_btf_coords", "the neural BTF's G-buffer"},
+      {"skin_lut", "the skin's pre-integrated LUT"},  {"synthetic_fur.png.photo", "the fur's photo"}};
+  for (const auto& [name, what] : resources) {
+    CAPTURE(name);
+    const auto png = dir / (name + ".png");
+    const auto r = run_command(cli + " render " + showcase + " --quality low --size 96x54 --output " + name + " -o " +
+                               png.string());
+    CHECK_MESSAGE(r.exit_code == 0, what << ": " << r.output);
+    CHECK(contains(r.output, "wrote " + name + " to "));
+    CHECK(std::filesystem::exists(png));
+  }
+  // Linear values to EXR, as they are.
+  const auto exr = dir / "depth.exr";
+  const auto d = run_command(cli + " render " + showcase + " --quality low --size 96x54 --output scene.depth -o " + exr.string());
+  CHECK_MESSAGE(d.exit_code == 0, d.output);
+  CHECK(std::filesystem::file_size(exr) > 1000);
+  // The SSDF's data are buffers: named, refused.
+  const auto b = run_command(cli + " render " + showcase + " --quality low --size 96x54 --output ssdf.irradiance_table -o " +
+                             (dir / "b.png").string());
+  CHECK(b.exit_code != 0);
+  CHECK(contains(b.output, "'ssdf.irradiance_table': that resource is a buffer"));
+  const auto u = run_command(cli + " render " + showcase + " --quality low --size 96x54 --output nothing.here -o " +
+                             (dir / "u.png").string());
+  CHECK(u.exit_code != 0);
+  CHECK(contains(u.output, "no pass slot or resource of this frame has that name (slots: shadow_map.depth"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("weft graph check: 0 for a frame that compiles, 1 with every problem; --export-pipeline reads back") {
+  const char* source = std::getenv("WEFT_SOURCE_DIR");
+  REQUIRE(source);
+  const std::string src = source;
+  const auto good = run_command(cli + " graph check " + src + "/examples/scenes/default.json --pipeline " + src +
+                                "/examples/pipelines/bloom_outline.json");
+  CHECK_MESSAGE(good.exit_code == 0, good.output);
+  CHECK(contains(good.output, "ok: "));
+  const auto bad = run_command(cli + " graph check " + src + "/examples/scenes/default.json --pipeline " + src +
+                               "/tests/pipeline/broken/bad_options.json");
+  CHECK(bad.exit_code == 1);
+  CHECK(contains(bad.output, "3 problems"));
+  CHECK(contains(bad.output, "$.passes.tonemap.options.gamma: unknown field"));
+  const auto dir = temp_dir();
+  const auto exported = dir / "exported.json";
+  const auto e = run_command(cli + " graph " + src + "/examples/scenes/default.json --export-pipeline " + exported.string());
+  CHECK_MESSAGE(e.exit_code == 0, e.output);
+  const auto again = run_command(cli + " graph check " + src + "/examples/scenes/default.json --pipeline " + exported.string());
+  CHECK_MESSAGE(again.exit_code == 0, again.output);
+  // A plugin that is not one: one line naming the file, exit 2.
+  std::ofstream(dir / "fake.so") << "not a shared library";
+  const auto p = run_command(cli + " --plugin " + (dir / "fake.so").string() + " info");
+  CHECK(p.exit_code == 2);
+  CHECK(contains(p.output, "plugin '" + (dir / "fake.so").string() + "': cannot be loaded"));
+  const auto missing = run_command(cli + " --plugin " + (dir / "none.so").string() + " info");
+  CHECK(missing.exit_code == 2);
+  CHECK(contains(missing.output, "no such file"));
+  // A shared library that is not a weft plugin (the C maths library has no entry point).
+  for (const char* libm : {"/lib/x86_64-linux-gnu/libm.so.6", "/usr/lib/x86_64-linux-gnu/libm.so.6"})
+    if (std::filesystem::exists(libm)) {
+      const auto m = run_command(cli + " --plugin " + libm + " info");
+      CHECK(m.exit_code == 2);
+      CHECK(contains(m.output, "no weft plugin entry point"));
+      break;
+    }
+  // From WEFT_PLUGIN_PATH a bad plugin is a warning, and the command still runs.
+  const auto env = run_command("WEFT_PLUGIN_PATH=" + dir.string() + " " + cli + " graph check " + src +
+                               "/examples/scenes/default.json");
+  CHECK_MESSAGE(env.exit_code == 0, env.output);
+  CHECK(contains(env.output, "WEFT_PLUGIN_PATH: plugin '"));
+  std::filesystem::remove_all(dir);
+}
