@@ -260,3 +260,44 @@ TEST_CASE("a frame rendered into the caller's texture is the frame read back, wi
   CHECK(refused.error().message.find("render target 'small target' is 32x32") != std::string::npos);
   weft::test::expect_no_validation_messages();
 }
+
+TEST_CASE("every new pass option at the ends of its range renders finite values, under validation") {
+  auto s = load(lit_scene);  // a key light, so the shadow map's resolution is used
+  struct Case {
+    const char* bloom;
+    const char* outline;
+    const char* tonemap;
+  };
+  for (const Case& c : {Case{R"({"intensity": 0, "levels": 1, "radius": 0.25})", R"({"threshold": 0.0001, "thickness": 1, "brightness": 0})",
+                             R"({"exposure": 1e-6, "operator": "clamp"})"},
+                        Case{R"({"intensity": 1, "levels": 10, "radius": 4})", R"({"threshold": 100, "thickness": 8, "brightness": 1})",
+                             R"({"exposure": 1e6, "operator": "aces"})"}}) {
+    CAPTURE(c.bloom);
+    auto p = parse(std::string(R"({"passes": {"shadow_map": {"type": "shadow_map", "options": {"resolution": 16}},
+        "scene": {"type": "scene_color", "options": {"clear": 0}}, "background": {"type": "background"},
+        "bloom": {"type": "bloom", "options": )") + c.bloom + R"(}, "tonemap": {"type": "tonemap", "options": )" + c.tonemap +
+                   R"(}, "outline": {"type": "outline", "options": )" + c.outline + R"(}},
+      "connections": ["shadow_map.depth -> scene.shadow_map", "scene.color -> background.color", "scene.depth -> background.depth",
+                      "background.color -> bloom.color", "bloom.color -> tonemap.color", "tonemap.color -> outline.color",
+                      "scene.depth -> outline.depth"],
+      "outputs": ["outline.color"]})");
+    auto f = shared_renderer().render(s, {.pipeline = &p, .outputs = {"bloom.color"}});
+    REQUIRE_MESSAGE(f, (f ? "" : f.error().message));
+    for (float v : output(*f, "bloom.color").pixels.pixels) REQUIRE(std::isfinite(v));
+    CHECK(f->image.width == 96);
+  }
+  // The debug view at its smallest range, and a range that is empty (refused when the pass is made).
+  auto tight = parse(R"({"passes": {"scene": {"type": "scene_color"},
+      "debug": {"type": "debug_view", "options": {"view": "normals", "near": 0, "far": 1e-6}}},
+    "connections": ["scene.depth -> debug.depth"], "outputs": ["debug.color"]})");
+  auto t = shared_renderer().render(s, {.pipeline = &tight});
+  REQUIRE_MESSAGE(t, (t ? "" : t.error().message));
+  auto empty = parse(R"({"passes": {"scene": {"type": "scene_color"},
+      "debug": {"type": "debug_view", "options": {"near": 5, "far": 5}}},
+    "connections": ["scene.depth -> debug.depth"], "outputs": ["debug.color"]})");
+  auto e = shared_renderer().render(s, {.pipeline = &empty});
+  REQUIRE(!e);
+  CHECK(e.error().message.find("debug_view: option 'far' (5) must be larger than 'near' (5)") != std::string::npos);
+  CHECK(e.error().message.find("pass 'debug'") != std::string::npos);
+  weft::test::expect_no_validation_messages();
+}
