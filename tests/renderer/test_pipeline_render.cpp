@@ -267,15 +267,16 @@ TEST_CASE("every new pass option at the ends of its range renders finite values,
     const char* bloom;
     const char* outline;
     const char* tonemap;
+    const char* clear;
   };
   for (const Case& c : {Case{R"({"intensity": 0, "levels": 1, "radius": 0.25})", R"({"threshold": 0.0001, "thickness": 1, "brightness": 0})",
-                             R"({"exposure": 1e-6, "operator": "clamp"})"},
+                             R"({"exposure": 1e-6, "operator": "clamp"})", "0"},
                         Case{R"({"intensity": 1, "levels": 10, "radius": 4})", R"({"threshold": 100, "thickness": 8, "brightness": 1})",
-                             R"({"exposure": 1e6, "operator": "aces"})"}}) {
+                             R"({"exposure": 1e6, "operator": "aces"})", "1e6"}}) {
     CAPTURE(c.bloom);
     auto p = parse(std::string(R"({"passes": {"shadow_map": {"type": "shadow_map", "options": {"resolution": 16}},
-        "scene": {"type": "scene_color", "options": {"clear": 0}}, "background": {"type": "background"},
-        "bloom": {"type": "bloom", "options": )") + c.bloom + R"(}, "tonemap": {"type": "tonemap", "options": )" + c.tonemap +
+        "scene": {"type": "scene_color", "options": {"clear": )") + c.clear + R"(}}, "background": {"type": "background"},
+        "bloom": {"type": "bloom", "options": )" + c.bloom + R"(}, "tonemap": {"type": "tonemap", "options": )" + c.tonemap +
                    R"(}, "outline": {"type": "outline", "options": )" + c.outline + R"(}},
       "connections": ["shadow_map.depth -> scene.shadow_map", "scene.color -> background.color", "scene.depth -> background.depth",
                       "background.color -> bloom.color", "bloom.color -> tonemap.color", "tonemap.color -> outline.color",
