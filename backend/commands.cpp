@@ -57,6 +57,7 @@ Result<CommandEncoder> Device::create_command_encoder(std::string_view label) {
 CommandEncoder::CommandEncoder(CommandEncoder&&) noexcept = default;
 CommandEncoder& CommandEncoder::operator=(CommandEncoder&& o) noexcept {
   std::swap(device_, o.device_);
+  std::swap(pool_, o.pool_);
   std::swap(cmd_, o.cmd_);
   std::swap(label_, o.label_);
   std::swap(error_, o.error_);
@@ -64,7 +65,7 @@ CommandEncoder& CommandEncoder::operator=(CommandEncoder&& o) noexcept {
   return *this;
 }
 CommandEncoder::~CommandEncoder() {
-  if (device_ && cmd_) vkFreeCommandBuffers(device_->device, device_->command_pool, 1, &cmd_);
+  if (device_ && pool_) vkDestroyCommandPool(device_->device, pool_, nullptr);
 }
 
 void CommandEncoder::report_error(Error error) {
@@ -87,6 +88,7 @@ Result<CommandBuffer> CommandEncoder::finish() {
     return std::unexpected(vk_error(r, weft::format("finishing command encoder '{}'", label_)));
   CommandBuffer out;
   out.device_ = std::move(device_);
+  out.pool_ = std::exchange(pool_, VK_NULL_HANDLE);
   out.cmd_ = std::exchange(cmd_, VK_NULL_HANDLE);
   out.label_ = label_;
   return out;
@@ -95,12 +97,13 @@ Result<CommandBuffer> CommandEncoder::finish() {
 CommandBuffer::CommandBuffer(CommandBuffer&&) noexcept = default;
 CommandBuffer& CommandBuffer::operator=(CommandBuffer&& o) noexcept {
   std::swap(device_, o.device_);
+  std::swap(pool_, o.pool_);
   std::swap(cmd_, o.cmd_);
   std::swap(label_, o.label_);
   return *this;
 }
 CommandBuffer::~CommandBuffer() {
-  if (device_ && cmd_) vkFreeCommandBuffers(device_->device, device_->command_pool, 1, &cmd_);
+  if (device_ && pool_) vkDestroyCommandPool(device_->device, pool_, nullptr);
 }
 
 void CommandEncoder::push_debug_group(std::string_view label) {
@@ -571,21 +574,8 @@ void ComputePassEncoder::end() {
 
 Result<void> Queue::submit(CommandBuffer&& commands) {
   if (!commands.cmd_) return fail(ErrorKind::InvalidArgument, "submitting an empty command buffer");
-  VkFenceCreateInfo fence_info{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-  VkFence fence = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateFence(device_->device, &fence_info, nullptr, &fence); r != VK_SUCCESS)
-    return std::unexpected(vk_error(r, "creating a fence"));
-  VkCommandBufferSubmitInfo cmd{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
-  cmd.commandBuffer = commands.cmd_;
-  VkSubmitInfo2 submit{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
-  submit.commandBufferInfoCount = 1;
-  submit.pCommandBufferInfos = &cmd;
-  if (VkResult r = vkQueueSubmit2(device_->queue, 1, &submit, fence); r != VK_SUCCESS) {
-    vkDestroyFence(device_->device, fence, nullptr);
-    return std::unexpected(vk_error(r, weft::format("submitting '{}'", commands.label())));
-  }
-  device_->pending.push_back({fence, std::exchange(commands.cmd_, VK_NULL_HANDLE)});
-  return {};
+  const VkCommandBuffer cmd = std::exchange(commands.cmd_, VK_NULL_HANDLE);
+  return device_->submit(std::exchange(commands.pool_, VK_NULL_HANDLE), cmd, VK_NULL_HANDLE, commands.label());
 }
 
 Result<void> Queue::wait_idle() { return device_->wait_idle(); }
@@ -700,13 +690,18 @@ Result<std::vector<std::byte>> Queue::read_buffer(const Buffer& buffer, std::uin
 namespace weft::gpu::detail {
 
 Result<CommandEncoder> DeviceShared::make_encoder(const std::shared_ptr<DeviceShared>& self, std::string_view label) {
-  VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-  alloc.commandPool = self->command_pool;
-  alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  alloc.commandBufferCount = 1;
+  VkCommandPoolCreateInfo pool{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  pool.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+  pool.queueFamilyIndex = self->queue_family;
   CommandEncoder encoder;
   encoder.device_ = self;
   encoder.label_ = label;
+  if (VkResult r = vkCreateCommandPool(self->device, &pool, nullptr, &encoder.pool_); r != VK_SUCCESS)
+    return std::unexpected(vk_error(r, weft::format("creating the command pool of encoder '{}'", label)));
+  VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  alloc.commandPool = encoder.pool_;
+  alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  alloc.commandBufferCount = 1;
   if (VkResult r = vkAllocateCommandBuffers(self->device, &alloc, &encoder.cmd_); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("creating command encoder '{}'", label)));
   self->set_name(VK_OBJECT_TYPE_COMMAND_BUFFER, std::uint64_t(encoder.cmd_), label);

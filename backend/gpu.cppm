@@ -3,6 +3,7 @@
 // vulkan.h; passes, the graph and the renderer see just these types.
 module;
 #include <array>
+#include <atomic>
 #include <cstddef>
 #include <expected>
 #include <utility>
@@ -11,10 +12,12 @@ module;
 #include <functional>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <span>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <vector>
 #include <vulkan/vulkan.h>
 export module weft.gpu;
@@ -676,6 +679,7 @@ class CommandBuffer {
  private:
   CommandBuffer() = default;
   std::shared_ptr<detail::DeviceShared> device_;
+  VkCommandPool pool_ = VK_NULL_HANDLE;  // the encoder's own pool (destroying it frees cmd_)
   VkCommandBuffer cmd_ = VK_NULL_HANDLE;
   std::string label_;
   friend class CommandEncoder;
@@ -803,6 +807,9 @@ class CommandEncoder {
   CommandEncoder() = default;
   bool check_outside_pass(std::string_view what);
   std::shared_ptr<detail::DeviceShared> device_;
+  // A pool per encoder: a pool must not be used by two threads at once, and two threads may
+  // record on one device (the viewer's window and render threads).
+  VkCommandPool pool_ = VK_NULL_HANDLE;
   VkCommandBuffer cmd_ = VK_NULL_HANDLE;
   std::string label_;
   std::optional<Error> error_;
@@ -816,7 +823,10 @@ class CommandEncoder {
 class Queue {
  public:
   // Submits and returns at once; wait_idle() (or any read-back) waits for completion.
+  // Thread-safe: threads may share a device (each with its own encoders).
   Result<void> submit(CommandBuffer&& commands);
+  // Waits for the work this thread submitted (and so for all work submitted before it: one
+  // queue runs in order), not for what other threads submitted since.
   Result<void> wait_idle();
   // Writes through a staging buffer (or directly into a MapWrite buffer) and waits.
   Result<void> write_buffer(const Buffer& buffer, std::uint64_t offset, std::span<const std::byte> data);
@@ -961,16 +971,21 @@ struct DeviceShared {
   VkDevice device = VK_NULL_HANDLE;
   VkQueue queue = VK_NULL_HANDLE;
   std::uint32_t queue_family = 0;
-  VkCommandPool command_pool = VK_NULL_HANDLE;
   VkPhysicalDeviceMemoryProperties memory_properties{};
   AdapterInfo info;
-  std::uint64_t allocated_bytes = 0;
+  std::atomic<std::uint64_t> allocated_bytes = 0;
   bool swapchain = false;  // VK_KHR_swapchain is enabled
+  // Submitted work not yet waited for, with the thread that submitted it. `mutex` guards it
+  // and the VkQueue (submit, present), which Vulkan wants externally synchronised.
   struct Pending {
     VkFence fence;
-    VkCommandBuffer cmd;
+    VkCommandPool pool;  // holds the submitted command buffer
+    std::thread::id thread;
   };
+  std::mutex mutex;
   std::vector<Pending> pending;
+  // Submits one command buffer signalling `signal` (if any) and keeps it pending; takes the pool.
+  Result<void> submit(VkCommandPool pool, VkCommandBuffer cmd, VkSemaphore signal, std::string_view label);
   ~DeviceShared();
 
   Result<std::uint32_t> find_memory_type(std::uint32_t type_bits, VkMemoryPropertyFlags required,

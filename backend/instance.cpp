@@ -12,6 +12,7 @@ module;
 #include <cstring>
 #include <memory>
 #include <mutex>
+#include <thread>
 #include <string>
 #include <vector>
 #include <vulkan/vulkan.h>
@@ -363,11 +364,6 @@ Result<Device> Adapter::request_device(const DeviceDescriptor& desc) const {
   vkGetPhysicalDeviceMemoryProperties(physical_, &shared->memory_properties);
   shared->info.limits.timestamps = shared->info.limits.timestamps && families[*family].timestampValidBits > 0;
 
-  VkCommandPoolCreateInfo pool{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-  pool.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-  pool.queueFamilyIndex = *family;
-  if (VkResult r = vkCreateCommandPool(shared->device, &pool, nullptr, &shared->command_pool); r != VK_SUCCESS)
-    return std::unexpected(vk_error(r, "vkCreateCommandPool"));
   shared->set_name(VK_OBJECT_TYPE_DEVICE, std::uint64_t(shared->device), desc.label);
 
   Device device;
@@ -394,9 +390,8 @@ DeviceShared::~DeviceShared() {
   vkDeviceWaitIdle(device);
   for (auto& p : pending) {
     vkDestroyFence(device, p.fence, nullptr);
-    vkFreeCommandBuffers(device, command_pool, 1, &p.cmd);
+    vkDestroyCommandPool(device, p.pool, nullptr);
   }
-  vkDestroyCommandPool(device, command_pool, nullptr);
   vkDestroyDevice(device, nullptr);
 }
 
@@ -413,18 +408,54 @@ void DeviceShared::set_name(VkObjectType type, std::uint64_t handle, std::string
   fn(device, &name_info);
 }
 
-Result<void> DeviceShared::wait_idle() {
-  if (!pending.empty()) {
-    std::vector<VkFence> fences;
-    for (auto& p : pending) fences.push_back(p.fence);
-    VkResult r = vkWaitForFences(device, std::uint32_t(fences.size()), fences.data(), VK_TRUE, UINT64_MAX);
-    for (auto& p : pending) {
-      vkDestroyFence(device, p.fence, nullptr);
-      vkFreeCommandBuffers(device, command_pool, 1, &p.cmd);
-    }
-    pending.clear();
-    if (r != VK_SUCCESS) return std::unexpected(vk_error(r, "waiting for the queue"));
+Result<void> DeviceShared::submit(VkCommandPool pool, VkCommandBuffer cmd, VkSemaphore signal, std::string_view label) {
+  VkFenceCreateInfo fence_info{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  VkFence fence = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateFence(device, &fence_info, nullptr, &fence); r != VK_SUCCESS) {
+    vkDestroyCommandPool(device, pool, nullptr);
+    return std::unexpected(vk_error(r, "creating a fence"));
   }
+  VkCommandBufferSubmitInfo buffer{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
+  buffer.commandBuffer = cmd;
+  VkSemaphoreSubmitInfo signal_info{VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO};
+  signal_info.semaphore = signal;
+  signal_info.stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+  VkSubmitInfo2 submit{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
+  submit.commandBufferInfoCount = 1;
+  submit.pCommandBufferInfos = &buffer;
+  submit.signalSemaphoreInfoCount = signal ? 1 : 0;
+  submit.pSignalSemaphoreInfos = signal ? &signal_info : nullptr;
+  std::lock_guard lock(mutex);
+  if (VkResult r = vkQueueSubmit2(queue, 1, &submit, fence); r != VK_SUCCESS) {
+    vkDestroyFence(device, fence, nullptr);
+    vkDestroyCommandPool(device, pool, nullptr);
+    return std::unexpected(vk_error(r, weft::format("submitting '{}'", label)));
+  }
+  pending.push_back({fence, pool, std::this_thread::get_id()});
+  return {};
+}
+
+// Only this thread's submissions are waited for (the queue runs in order, so that covers
+// everything submitted before them): the viewer's window thread must not wait for the
+// render thread's frame on a shared device.
+Result<void> DeviceShared::wait_idle() {
+  std::vector<Pending> mine;
+  {
+    std::lock_guard lock(mutex);
+    const auto self = std::this_thread::get_id();
+    auto split = std::stable_partition(pending.begin(), pending.end(), [&](const Pending& p) { return p.thread != self; });
+    mine.assign(split, pending.end());
+    pending.erase(split, pending.end());
+  }
+  if (mine.empty()) return {};
+  std::vector<VkFence> fences;
+  for (auto& p : mine) fences.push_back(p.fence);
+  const VkResult r = vkWaitForFences(device, std::uint32_t(fences.size()), fences.data(), VK_TRUE, UINT64_MAX);
+  for (auto& p : mine) {
+    vkDestroyFence(device, p.fence, nullptr);
+    vkDestroyCommandPool(device, p.pool, nullptr);
+  }
+  if (r != VK_SUCCESS) return std::unexpected(vk_error(r, "waiting for the queue"));
   return {};
 }
 

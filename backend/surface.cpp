@@ -9,6 +9,7 @@ module;
 #include <cstring>
 #include <expected>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <span>
 #include <string>
@@ -312,25 +313,11 @@ Result<void> Surface::present() {
   auto commands = encoder->finish();
   if (!commands) return std::unexpected(commands.error());
 
-  VkFenceCreateInfo fence_info{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-  VkFence fence = VK_NULL_HANDLE;
-  if (VkResult r = vkCreateFence(s.device->device, &fence_info, nullptr, &fence); r != VK_SUCCESS)
-    return std::unexpected(vk_error(r, "creating a fence"));
-  VkCommandBufferSubmitInfo cmd{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
-  cmd.commandBuffer = commands->cmd_;
-  VkSemaphoreSubmitInfo signal{VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO};
-  signal.semaphore = s.rendered[index];
-  signal.stageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
-  VkSubmitInfo2 submit{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
-  submit.commandBufferInfoCount = 1;
-  submit.pCommandBufferInfos = &cmd;
-  submit.signalSemaphoreInfoCount = 1;
-  submit.pSignalSemaphoreInfos = &signal;
-  if (VkResult r = vkQueueSubmit2(s.device->queue, 1, &submit, fence); r != VK_SUCCESS) {
-    vkDestroyFence(s.device->device, fence, nullptr);
-    return std::unexpected(vk_error(r, "submitting the present transition"));
-  }
-  s.device->pending.push_back({fence, std::exchange(commands->cmd_, VK_NULL_HANDLE)});
+  const VkCommandBuffer cmd = std::exchange(commands->cmd_, VK_NULL_HANDLE);
+  if (auto ok = s.device->submit(std::exchange(commands->pool_, VK_NULL_HANDLE), cmd, s.rendered[index],
+                                 "the present transition");
+      !ok)
+    return ok;
 
   VkPresentInfoKHR info{VK_STRUCTURE_TYPE_PRESENT_INFO_KHR};
   info.waitSemaphoreCount = 1;
@@ -338,7 +325,11 @@ Result<void> Surface::present() {
   info.swapchainCount = 1;
   info.pSwapchains = &s.swapchain;
   info.pImageIndices = &index;
-  const VkResult r = vkQueuePresentKHR(s.device->queue, &info);
+  VkResult r;
+  {
+    std::lock_guard lock(s.device->mutex);  // the queue is shared with other threads' submits
+    r = vkQueuePresentKHR(s.device->queue, &info);
+  }
   if (r == VK_ERROR_OUT_OF_DATE_KHR || r == VK_SUBOPTIMAL_KHR) {
     s.remake = true;
     return {};

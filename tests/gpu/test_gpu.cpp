@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 #include <unistd.h>
 import weft.core;
@@ -691,5 +692,66 @@ TEST_CASE("handles are move-only RAII values that outlive moves") {
   CHECK(device().allocated_bytes() < allocated);
   static_assert(!std::is_copy_constructible_v<gpu::Buffer>);
   static_assert(!std::is_copy_constructible_v<gpu::Texture>);
+  expect_no_validation_messages();
+}
+
+// The viewer's window thread and render thread share one device (weft view --scene-device
+// shared): recording, submitting and waiting from two threads at once must be what Vulkan
+// allows (the validation layer's thread-safety checks report a command pool or queue used by
+// two threads at once), and each thread's results must be its own.
+TEST_CASE("two threads record, submit and wait on one device") {
+  constexpr int rounds = 40;
+  auto work = [](std::uint32_t seed, std::string* failure) {
+    auto buffer = device().create_buffer({.label = weft::format("thread-{}", seed), .size = 4096,
+                                          .usage = gpu::BufferUsage::CopyDst | gpu::BufferUsage::CopySrc});
+    auto target = device().create_texture({.label = weft::format("thread-{}-target", seed), .size = {16, 16, 1},
+                                           .format = gpu::Format::RGBA8Unorm,
+                                           .usage = gpu::TextureUsage::ColorAttachment | gpu::TextureUsage::CopySrc});
+    if (!buffer || !target) {
+      *failure = "creating the thread's objects failed";
+      return;
+    }
+    for (int round = 0; round < rounds; ++round) {
+      std::vector<std::uint32_t> data(1024);
+      for (std::size_t i = 0; i < data.size(); ++i) data[i] = seed * 1000003u + std::uint32_t(round) * 7919u + std::uint32_t(i);
+      if (auto ok = device().queue().write_buffer(*buffer, 0, bytes_of(data)); !ok) {
+        *failure = ok.error().what();
+        return;
+      }
+      auto back = device().queue().read_buffer(*buffer);
+      if (!back || as_vector<std::uint32_t>(*back) != data) {
+        *failure = weft::format("thread {} round {}: the buffer did not read back what was written", seed, round);
+        return;
+      }
+      // A render pass too: a clear to this thread's colour, read back.
+      auto enc = device().create_command_encoder(weft::format("thread-{}-clear", seed));
+      if (!enc) {
+        *failure = enc.error().what();
+        return;
+      }
+      enc->transition(*target, gpu::Access::ColorAttachment);
+      const float shade = float((seed * 40 + std::uint32_t(round)) % 256) / 255.0f;
+      auto pass = enc->begin_render_pass(
+          {.label = "clear", .color_attachments = {{.view = &target->view(), .clear_color = {shade, 0, 1, 1}}}});
+      pass.end();
+      auto cmd = enc->finish();
+      if (!cmd || !device().queue().submit(std::move(*cmd))) {
+        *failure = "submitting the clear failed";
+        return;
+      }
+      auto pixels = device().queue().read_texture(*target);
+      if (!pixels || std::to_integer<int>((*pixels)[0]) != int(std::lround(shade * 255.0f))) {
+        *failure = weft::format("thread {} round {}: the cleared texture read back another colour", seed, round);
+        return;
+      }
+    }
+  };
+  std::string failure_a, failure_b;
+  std::thread a(work, 1u, &failure_a), b(work, 2u, &failure_b);
+  a.join();
+  b.join();
+  CHECK_MESSAGE(failure_a.empty(), failure_a);
+  CHECK_MESSAGE(failure_b.empty(), failure_b);
+  REQUIRE(device().queue().wait_idle());
   expect_no_validation_messages();
 }

@@ -388,3 +388,34 @@ TEST_CASE("a pipeline file reloads live (a bad edit keeps the frame), and any re
   CHECK(depth->pixels[centre] == depth->pixels[centre + 2]);
   CHECK(difference(shot("p_default.png"), shot("p_frame.png")).max <= 1);
 }
+
+TEST_CASE("scene frames on the window's device (--scene-device shared) or on their own: weft render's image, no validation message, compare works") {
+  require_display();
+  const fs::path scene = scratch() / "devices.json", rendered = scratch() / "devices_rendered.png";
+  write(scene, skin_scene("100", "ball", "[0.45, 0.3, 0.2]"));
+  auto r = run(weft_cli() + " render " + scene.string() + " --size 160x120 --quality low -o " + rendered.string());
+  INFO(r.output);
+  REQUIRE(r.code == 0);
+  for (const std::string mode : {"shared", "own"}) {
+    CAPTURE(mode);
+    const fs::path shot = scratch() / ("devices_" + mode + ".png"), script = scratch() / ("devices_" + mode + ".txt");
+    // Moves (small frames), a resize both ways (new frame textures), then the refined frame
+    // and a comparison (on a shared device its pixels are read from the texture).
+    write(script, "orbit 20 0\norbit 10 5\nresize 200 150\nwait 2\nresize 160 120\nwait 2\nreset\nui off\nrefine\n"
+                  "screenshot " + shot.string() + "\nknob skin reference true\nrefine\ncompare skin\nquit\n");
+    auto v = run("WEFT_VALIDATION=1 WEFT_SYNC_VALIDATION=1 " + weft_cli() + " view " + scene.string() +
+                 " --size 160x120 --quality low --scene-device " + mode + " --script " + script.string());
+    INFO(v.output);
+    CHECK(v.code == 0);
+    CHECK(v.output.find("weft view: 0 validation message(s)") != std::string::npos);
+    CHECK(v.output.find(mode == "shared" ? "scene frames on the window's device" : "scene frames on a device of their own") !=
+          std::string::npos);
+    CHECK(v.output.find("compare skin (skin_sss): RMSE 0.000000, PSNR inf dB") != std::string::npos);
+    const Difference d = difference(shot, rendered);
+    CHECK(d.max <= 1);
+    CHECK(d.mean < 0.01);
+  }
+  auto bad = run(weft_cli() + " view " + scene.string() + " --scene-device both");
+  CHECK(bad.code != 0);
+  CHECK(bad.output.find("--scene-device") != std::string::npos);
+}

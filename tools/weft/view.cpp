@@ -15,7 +15,7 @@ Command add_view(CLI::App& app) {
   struct Options {
     std::string scene, size = "1280x720", quality = "medium", script;
     double motion_budget_ms = 100.0;
-    std::string shader_dir, pipeline;
+    std::string shader_dir, pipeline, scene_device = "auto";
   };
   auto o = std::make_shared<Options>();
   sub->add_option("scene", o->scene, "Scene file (.json, or a .gltf/.glb); edits to it are reloaded live")->required();
@@ -31,6 +31,12 @@ Command add_view(CLI::App& app) {
                   "in the source tree)");
   sub->add_option("--pipeline", o->pipeline,
                   "Pipeline file: the frame's passes (docs/pipelines.md); edits to it are reloaded live");
+  sub->add_option("--scene-device", o->scene_device,
+                  "Where scene frames render: shared (the window's device, no CPU round trip), own (a device of "
+                  "their own, pixels uploaded: keeps the UI's frames apart from a slow scene frame on a CPU "
+                  "adapter), auto (own on a CPU adapter, shared on a GPU)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "shared", "own"}));
   return [o] {
 #ifdef WEFT_HAVE_VIEWER
     const auto size = parse_size(o->size, 16384);  // digits only: sscanf's %u read "-1" as 4294967295
@@ -43,6 +49,10 @@ Command add_view(CLI::App& app) {
     if (!o->script.empty()) options.script = o->script;
     if (!o->shader_dir.empty()) options.shader_dir = o->shader_dir;
     if (!o->pipeline.empty()) options.pipeline = o->pipeline;
+    using SceneDevice = viewer::ViewOptions::SceneDevice;
+    options.scene_device = o->scene_device == "shared" ? SceneDevice::Shared
+                           : o->scene_device == "own" ? SceneDevice::Own
+                                                      : SceneDevice::Auto;
     return viewer::run(options);
 #else
     std::fprintf(stderr, "weft view: this weft was built without the viewer (install libglfw3-dev and libimgui-dev, "

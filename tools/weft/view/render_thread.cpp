@@ -1,7 +1,9 @@
-// Scene frames on a thread of their own, with a device of their own: a showcase frame takes
-// hundreds of milliseconds on lavapipe (seconds with a bake), and the window must keep
-// answering meanwhile. Two devices share nothing that Vulkan would need locked (queues,
-// command pools); the image crosses over as pixels, which the UI thread uploads.
+// Scene frames on a thread of their own: a showcase frame takes hundreds of milliseconds on
+// lavapipe (seconds with a bake), and the window must keep answering meanwhile. On the
+// window's device (shared) a frame is rendered into a texture the window then shows; the
+// textures go round a small pool (give_back). On a device of its own the image crosses over
+// as pixels, which the UI thread uploads: the CPU round trip, kept for CPU adapters, whose one
+// queue would otherwise make each UI frame wait for the scene frame submitted before it.
 module;
 #include <chrono>
 #include <condition_variable>
@@ -13,6 +15,7 @@ module;
 #include <string_view>
 #include <thread>
 #include <utility>
+#include <vector>
 module weft.viewer;
 import weft.core;
 import weft.gpu;
@@ -32,17 +35,40 @@ struct SceneRenderer::Shared {
   Clock::time_point busy_since{};
   std::string progress;
   bool renew = false;
+  std::vector<std::shared_ptr<gpu::Texture>> free_frames;  // shared device: textures to render into
 };
 
-Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
-  auto device = adapter.request_device({.label = "weft view scene"});
-  if (!device) return std::unexpected(device.error());
+Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter, gpu::Device* shared_device) {
+  std::shared_ptr<gpu::Device> owned;
+  if (!shared_device) {
+    auto device = adapter.request_device({.label = "weft view scene"});
+    if (!device) return std::unexpected(device.error());
+    owned = std::make_shared<gpu::Device>(std::move(*device));
+  }
+  gpu::Device* const device = shared_device ? shared_device : owned.get();
   SceneRenderer r;
   r.shared_ = std::make_shared<Shared>();
-  auto owned = std::make_shared<gpu::Device>(std::move(*device));
-  auto renderer = renderer::Renderer::create(*owned);
+  auto renderer = renderer::Renderer::create(*device);
   if (!renderer) return std::unexpected(renderer.error());
-  r.thread_ = std::thread([shared = r.shared_, owned, made = std::make_shared<renderer::Renderer>(std::move(*renderer))]() mutable {
+  r.thread_ = std::thread([shared = r.shared_, owned, device, on_window_device = shared_device != nullptr,
+                           made = std::make_shared<renderer::Renderer>(std::move(*renderer))]() mutable {
+    // A texture of the window's device to render a frame of this size into: a free one, or new.
+    auto frame_texture = [&](std::uint32_t w, std::uint32_t h) -> Result<std::shared_ptr<gpu::Texture>> {
+      {
+        std::lock_guard lock(shared->mutex);
+        auto& free = shared->free_frames;
+        std::erase_if(free, [&](const auto& t) { return t->size().width != w || t->size().height != h; });
+        if (!free.empty()) {
+          auto t = std::move(free.back());
+          free.pop_back();
+          return t;
+        }
+      }
+      auto t = device->create_texture({.label = "viewer frame", .size = {w, h, 1}, .format = gpu::Format::RGBA8Unorm,
+                                       .usage = gpu::TextureUsage::ColorAttachment | gpu::TextureUsage::CopySrc});
+      if (!t) return std::unexpected(t.error());
+      return std::make_shared<gpu::Texture>(std::move(*t));
+    };
     std::shared_ptr<const scene::Scene> source;
     scene::Scene scene;  // the thread's copy; only the camera changes between versions
     bool renew = false;
@@ -65,9 +91,9 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
         shared->busy_since = Clock::now();
       }
       if (renew) {  // shaders were replaced: the old renderer's pipelines go, with their passes
-        (void)owned->queue().wait_idle();
+        (void)device->queue().wait_idle();
         made.reset();
-        auto fresh = renderer::Renderer::create(*owned);
+        auto fresh = renderer::Renderer::create(*device);
         if (!fresh) {
           post({.id = job.id, .moving = job.moving, .reference = job.reference, .error = fresh.error().what()});
           continue;
@@ -104,21 +130,46 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter) {
         } else {
           result.error = fitted.error().what();
         }
-      } else if (auto frame = made->render(scene, options); frame) {
+      } else {
+        // On the window's device the frame's image goes into a texture the window shows as it is.
+        std::shared_ptr<gpu::Texture> target;
+        if (on_window_device && options.outputs.empty() && !job.reference) {
+          auto t = frame_texture(job.width, job.height);
+          if (!t) {
+            post({.id = job.id, .moving = job.moving, .reference = job.reference, .error = t.error().what()});
+            continue;
+          }
+          target = std::move(*t);
+          options.target = target.get();
+          options.target_final_state = gpu::Access::CopySrc;  // the window blits it
+        }
+        auto frame = made->render(scene, options);
+        if (!frame) {
+          if (target) {
+            std::lock_guard lock(shared->mutex);
+            shared->free_frames.push_back(std::move(target));
+          }
+          result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+          result.error = frame.error().what();
+          post(std::move(result));
+          continue;
+        }
         result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+        result.texture = std::move(target);
         // A resource shown instead of the image: its picture takes the image's place.
         if (!options.outputs.empty() && !frame->outputs.empty()) frame->image = renderer::picture(frame->outputs.front());
         result.frame = std::move(*frame);
         if (job.describe)
           if (auto report = made->describe(scene, options)) result.graph = std::move(*report);
-      } else {
-        result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-        result.error = frame.error().what();
       }
       post(std::move(result));
     }
     made.reset();  // the renderer's GPU objects go before their device
-    (void)owned->queue().wait_idle();
+    (void)device->queue().wait_idle();
+    {
+      std::lock_guard lock(shared->mutex);
+      shared->free_frames.clear();
+    }
     owned.reset();
   });
   return r;
@@ -153,6 +204,12 @@ double SceneRenderer::busy_seconds() const {
   std::lock_guard lock(shared_->mutex);
   if (!shared_->busy) return 0.0;
   return std::chrono::duration<double>(Clock::now() - shared_->busy_since).count();
+}
+
+void SceneRenderer::give_back(std::shared_ptr<gpu::Texture> texture) {
+  if (!texture) return;
+  std::lock_guard lock(shared_->mutex);
+  shared_->free_frames.push_back(std::move(texture));
 }
 
 void SceneRenderer::renew_renderer() {

@@ -9,6 +9,7 @@ module;
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <expected>
 #include <filesystem>
 #include <fstream>
@@ -404,7 +405,16 @@ void Session::request_comparison(std::size_t material) {
 }
 
 Result<void> Session::update_comparison() {
-  if (!comparison || comparison->posted || !refined || !refined_image || !posted) return {};
+  if (!comparison || comparison->posted || !refined || !posted) return {};
+  if (!refined_image) {
+    // On a shared device the refined frame is a texture only: its pixels are read once, here.
+    if (!last_frame) return {};
+    auto bytes = device->queue().read_texture(*last_frame);
+    if (!bytes) return std::unexpected(bytes.error());
+    image::Image8 pixels = image::Image8::filled(last_frame->size().width, last_frame->size().height, 4);
+    std::memcpy(pixels.pixels.data(), bytes->data(), pixels.pixels.size());
+    refined_image = std::move(pixels);
+  }
   scene::Camera view = scene.camera;
   view.position = posted->pose.position;
   view.target = posted->pose.target;
@@ -472,18 +482,31 @@ Result<void> Session::accept(RenderResult result, int window_w, int window_h) {
     return {};  // the last good image stays
   }
   auto& frame = *result.frame;
-  const std::uint32_t w = frame.image.width, h = frame.image.height;
-  if (!last_frame || last_frame->size().width != w || last_frame->size().height != h) {
-    last_frame.reset();
-    auto t = device->create_texture({.label = "viewer frame", .size = {w, h, 1}, .format = gpu::Format::RGBA8Unorm,
-                                     .usage = gpu::TextureUsage::CopySrc | gpu::TextureUsage::CopyDst});
-    if (!t) return std::unexpected(t.error());
-    last_frame.emplace(std::move(*t));
+  // The window shows the render thread's texture (shared device), or its pixels uploaded into
+  // a texture of the window's device. A texture from the render thread goes back to it once
+  // another image is shown (this thread's frames that read it have completed by then).
+  auto replace_frame = [&](std::shared_ptr<gpu::Texture> next, bool pooled) {
+    if (last_frame_pooled) scene_renderer->give_back(std::move(last_frame));
+    last_frame = std::move(next);
+    last_frame_pooled = pooled;
+  };
+  std::uint32_t w = frame.image.width, h = frame.image.height;
+  if (result.texture) {
+    w = result.texture->size().width;
+    h = result.texture->size().height;
+    replace_frame(std::move(result.texture), true);
+  } else {
+    if (!last_frame || last_frame_pooled || last_frame->size().width != w || last_frame->size().height != h) {
+      auto t = device->create_texture({.label = "viewer frame", .size = {w, h, 1}, .format = gpu::Format::RGBA8Unorm,
+                                       .usage = gpu::TextureUsage::CopySrc | gpu::TextureUsage::CopyDst});
+      if (!t) return std::unexpected(t.error());
+      replace_frame(std::make_shared<gpu::Texture>(std::move(*t)), false);
+    }
+    if (auto ok = device->queue().write_texture(*last_frame, std::as_bytes(std::span(frame.image.pixels)), 0,
+                                                gpu::Access::CopySrc);
+        !ok)
+      return ok;
   }
-  if (auto ok = device->queue().write_texture(*last_frame, std::as_bytes(std::span(frame.image.pixels)), 0,
-                                              gpu::Access::CopySrc);
-      !ok)
-    return ok;
   last_render_ms = result.ms;
   rendered_w = w;
   rendered_h = h;
@@ -505,7 +528,10 @@ Result<void> Session::accept(RenderResult result, int window_w, int window_h) {
   if (frame_ms_history.size() > 120) frame_ms_history.erase(frame_ms_history.begin());
   if (result.id == posted_id && !result.moving) {
     refined = true;
-    refined_image = frame.image;
+    if (frame.image.pixels.empty())
+      refined_image.reset();  // read from the texture if a comparison needs it
+    else
+      refined_image = frame.image;
     if (refine_requested != Clock::time_point{}) {
       last_refine_ms = std::chrono::duration<double, std::milli>(Clock::now() - refine_requested).count();
       refine_ms.push_back(last_refine_ms);
@@ -650,7 +676,11 @@ int run(const ViewOptions& options) {
     return 1;
   }
   s.ui.emplace(std::move(*ui));
-  auto scene_renderer = SceneRenderer::start(*s.adapter);
+  // One device or two (ViewOptions::scene_device): docs/viewer.md measures both.
+  using SceneDevice = ViewOptions::SceneDevice;
+  s.shared_device = options.scene_device == SceneDevice::Shared ||
+                    (options.scene_device == SceneDevice::Auto && s.adapter->info().type != gpu::AdapterType::Cpu);
+  auto scene_renderer = SceneRenderer::start(*s.adapter, s.shared_device ? &*s.device : nullptr);
   if (!scene_renderer) {
     std::fprintf(stderr, "weft view: %s\n", scene_renderer.error().what().c_str());
     return 1;
@@ -663,8 +693,9 @@ int run(const ViewOptions& options) {
   s.shader_watch.emplace(options.shader_dir);
   log::info(weft::format("shader hot reload: watching {} file(s){}", s.shader_watch->watched_files(),
                          options.shader_dir ? " in " + options.shader_dir->string() : std::string(" of the source tree")));
-  log::info(weft::format("viewing {} on {} ({})", options.scene.string(), s.adapter->info().name,
-                         gpu::to_string(s.surface->configuration().present_mode)));
+  log::info(weft::format("viewing {} on {} ({}; scene frames on {})", options.scene.string(), s.adapter->info().name,
+                         gpu::to_string(s.surface->configuration().present_mode),
+                         s.shared_device ? "the window's device" : "a device of their own"));
 
   auto last = Clock::now();
   auto fps_window = Clock::now();

@@ -95,6 +95,12 @@ struct ViewOptions {
   std::optional<std::filesystem::path> shader_dir;
   // The frame's pipeline file (else the scene's, else the default); edits reload live.
   std::optional<std::filesystem::path> pipeline;
+  // Where scene frames are rendered (docs/viewer.md#one-device-or-two):
+  //  Shared: on the window's device, into a texture the window then shows (no CPU round trip);
+  //  Own: on a device of their own, read back and uploaded to the window's (a CPU adapter runs
+  //       one queue's work in order, so a long scene frame would hold the UI's frames back);
+  //  Auto: Own on a CPU adapter, Shared on a GPU.
+  enum class SceneDevice : std::uint8_t { Auto, Shared, Own } scene_device = SceneDevice::Auto;
 };
 // Runs until the window closes, Escape, or the script's `quit`; the exit code (non-zero with
 // a one-line reason on stderr: no display, a bad scene or script, validation messages).
@@ -214,14 +220,21 @@ struct RenderResult {
   bool reference = false;
   double ms = 0.0;
   std::optional<renderer::Frame> frame;  // none when it failed: `error` says why
+  // On a shared device, the frame's image as a texture of the window's device (frame->image is
+  // then empty); hand it back with SceneRenderer::give_back once something else is shown.
+  std::shared_ptr<gpu::Texture> texture;
   std::optional<renderer::GraphReport> graph;
   std::optional<BudgetOutcome> budget;
   std::string error;
 };
-// Renders jobs on its own thread and device (render_thread.cpp); the newest job wins.
+// Renders jobs on its own thread (render_thread.cpp); the newest job wins. With `shared` (the
+// window's device, which must outlive it) frames go into textures of that device; without, the
+// thread makes a device of its own and frames come back as pixels.
 class SceneRenderer {
  public:
-  static Result<SceneRenderer> start(const gpu::Adapter& adapter);
+  static Result<SceneRenderer> start(const gpu::Adapter& adapter, gpu::Device* shared);
+  // A texture of RenderResult::texture the window no longer shows: the next frames reuse it.
+  void give_back(std::shared_ptr<gpu::Texture> texture);
   SceneRenderer(SceneRenderer&&) noexcept;
   SceneRenderer& operator=(SceneRenderer&&) noexcept;
   ~SceneRenderer();
@@ -265,7 +278,9 @@ struct Session {
   Quality quality = Quality::Medium;
 
   std::shared_ptr<const scene::Scene> snapshot;  // what the render thread sees; null: stale
-  std::optional<gpu::Texture> last_frame;  // the last scene image (RGBA8, sRGB-encoded)
+  std::shared_ptr<gpu::Texture> last_frame;  // the last scene image (RGBA8, sRGB-encoded)
+  bool shared_device = false;  // scene frames render on `device` (ViewOptions::SceneDevice)
+  bool last_frame_pooled = false;  // last_frame is the render thread's: give it back when replaced
   // The last job handed to the render thread, to post a new one only when something changed.
   struct Wanted {
     const scene::Scene* scene = nullptr;
