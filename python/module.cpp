@@ -10,6 +10,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+#include <pybind11/eval.h>
 #include <nlohmann/json.hpp>
 #include <cmath>
 #include <cstdint>
@@ -428,6 +430,13 @@ ValueError/RuntimeError with weft's message when it cannot be loaded.)");
 
 using namespace weft::python;
 
+namespace {
+py::object& not_found_error() {
+  static py::object* type = new py::object();  // leaked: lives as long as the interpreter
+  return *type;
+}
+}  // namespace
+
 PYBIND11_MODULE(weft, m) {
   m.doc() = R"(weft: a real-time render-graph engine (Vulkan; lavapipe on machines without a GPU), from Python.
 
@@ -447,6 +456,19 @@ Rendering releases the GIL: renderers in different threads render at the same ti
 renderer is used by one thread at a time; renderers sharing a Device take turns on it).
 See docs/python.md.)";
 
+  // weft's NotFound is a missing file or a missing named thing (an adapter, a resource of the
+  // frame, a feature): both FileNotFoundError and LookupError catch it.
+  {
+    py::dict scope;
+    py::exec(R"(
+class NotFoundError(FileNotFoundError, LookupError):
+    """weft could not find a file or a named thing (adapter, resource, feature): weft's NotFound."""
+    __module__ = "weft"
+)",
+             py::globals(), scope);
+    m.attr("NotFoundError") = scope["NotFoundError"];
+    not_found_error() = scope["NotFoundError"];
+  }
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -457,7 +479,7 @@ See docs/python.md.)";
         case weft::ErrorKind::Parse:
         case weft::ErrorKind::Graph:
         case weft::ErrorKind::Unsupported: PyErr_SetString(PyExc_ValueError, message.c_str()); return;
-        case weft::ErrorKind::NotFound: PyErr_SetString(PyExc_FileNotFoundError, message.c_str()); return;
+        case weft::ErrorKind::NotFound: PyErr_SetString(not_found_error().ptr(), message.c_str()); return;
         case weft::ErrorKind::Io: PyErr_SetString(PyExc_OSError, message.c_str()); return;
         default: PyErr_SetString(PyExc_RuntimeError, message.c_str()); return;
       }

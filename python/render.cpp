@@ -261,7 +261,8 @@ and checked like a file: ValueError with every problem, each at its JSON path.)"
 A copy with these options of one pass changed (e.g. with_options('tonemap', exposure=2.0)),
 checked against the pass type's options table: ValueError with the JSON path otherwise.)")
       .def_property_readonly("source", [](const PyPipeline& p) { return p.pipeline.source; }, "Where it came from (str).")
-      .def_property_readonly("description", [](const PyPipeline& p) { return p.pipeline.description; })
+      .def_property_readonly("description", [](const PyPipeline& p) { return p.pipeline.description; },
+                             "The pipeline's description (str; '' when it has none).")
       .def_property_readonly(
           "passes",
           [](const PyPipeline& p) {

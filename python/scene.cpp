@@ -55,7 +55,6 @@ scene::Scene load_document(const json& document, const std::filesystem::path& ba
   return unwrap(std::move(loaded));
 }
 
-json vec_json(const vec3& v) { return json::array({v.x, v.y, v.z}); }
 py::tuple vec_tuple(const vec3& v) { return py::make_tuple(v.x, v.y, v.z); }
 
 // ---- material fields -------------------------------------------------------------------------
@@ -175,7 +174,7 @@ scene::Material edited(const MaterialView& view, const json& fields) {
   if (!feature) raise(ErrorKind::Internal, view.label() + ": no feature of this type is registered");
   if (!m.params.is_object()) m.params = json::object();
   for (const auto& [name, value] : fields.items()) {
-    if (const Knob* knob = find_knob(feature->knobs, name)) {
+    if (const Knob* knob = find_knob(feature->knobs, name); knob && !value.is_null()) {
       if (auto ok = tradeoff::check_knob_value(*knob, value); !ok)
         raise(ErrorKind::InvalidArgument, weft::format("{}: {}", view.label(), ok.error().message));
     }
