@@ -68,7 +68,7 @@ ax.plot(times, errors, "o-", color="#b5651d")
 for n, ms, e in zip(layers, times, errors):
     ax.annotate(f"{n}", (ms, e), textcoords="offset points", xytext=(5, 4), fontsize=8)
 ax.axvline(reference_ms, color="grey", ls="--", lw=1)
-ax.text(reference_ms, max(errors), " reference\n (256 layers)", fontsize=8, va="top", color="grey")
+ax.text(reference_ms, max(errors), "reference \n(256 layers) ", fontsize=8, va="top", ha="right", color="grey")
 ax.set_xscale("log")
 ax.set_yscale("log")
 ax.set_xlabel(f"render() wall time per frame, ms ({size[0]}x{size[1]}, {renderer.device.adapter['driver']})")

@@ -60,3 +60,10 @@ def test_help_on_every_function_and_method_says_what_it_takes_and_returns():
     missing = [m for m in missing if not m.startswith("NotFoundError")]
     assert missing == [], f"without a docstring saying what they take and return: {missing}"
     assert "quality" in weft.Renderer.render.__doc__ and "numpy.ndarray" in weft.Renderer.render.__doc__
+
+
+def test_docs_python_md_shows_the_example_script_as_it_is():
+    from conftest import SOURCE
+    doc = (SOURCE / "docs" / "python.md").read_text()
+    script = (SOURCE / "examples" / "python" / "fur_layers.py").read_text().rstrip("\n")
+    assert "```python\n" + script + "\n```" in doc, "docs/python.md's script differs from examples/python/fur_layers.py"
