@@ -55,6 +55,31 @@ scene::Scene load_document(const json& document, const std::filesystem::path& ba
   return unwrap(std::move(loaded));
 }
 
+// Every feature material checked by its feature (the scene reader leaves a feature's fields to
+// the feature, which the renderer asks at the first render): each bad material's problems at
+// once, at load time, as one error.
+void check_feature_materials(const scene::Scene& s) {
+  std::vector<std::string> problems;
+  for (const auto& m : s.materials) {
+    if (m.type == scene::standard_material) continue;
+    if (const FeatureDescriptor* f = feature_registry().find(m.type))
+      if (auto ok = f->check_material(m); !ok) problems.push_back(ok.error().message);
+  }
+  unwrap(join_problems(problems));
+}
+
+std::shared_ptr<PyScene> loaded_scene(const std::filesystem::path& path) {
+  Result<scene::Scene> loaded;
+  {
+    py::gil_scoped_release release;
+    loaded = scene::load_scene(path);
+  }
+  auto s = std::make_shared<PyScene>();
+  s->scene = unwrap(std::move(loaded));
+  check_feature_materials(s->scene);
+  return s;
+}
+
 py::tuple vec_tuple(const vec3& v) { return py::make_tuple(v.x, v.y, v.z); }
 
 // ---- material fields -------------------------------------------------------------------------
@@ -433,22 +458,14 @@ An empty scene: no meshes or objects, the default camera (at (0, 1, 5) looking a
 a black constant environment, no lights, output size 1280x720.)")
       .def_static(
           "load",
-          [](const std::filesystem::path& path) {
-            Result<scene::Scene> loaded;
-            {
-              py::gil_scoped_release release;
-              loaded = scene::load_scene(path);
-            }
-            auto s = std::make_shared<PyScene>();
-            s->scene = unwrap(std::move(loaded));
-            return s;
-          },
+          [](const std::filesystem::path& path) { return loaded_scene(path); },
           py::arg("path"), "Scene.load(path) -> Scene: the same as weft.load_scene(path).")
       .def_static(
           "from_dict",
           [](const py::dict& document, std::optional<std::filesystem::path> base_dir, const std::string& source) {
             auto s = std::make_shared<PyScene>();
             s->scene = load_document(to_json(document), base_dir_or_cwd(base_dir), source);
+            check_feature_materials(s->scene);
             return s;
           },
           py::arg("document"), py::arg("base_dir") = py::none(), py::arg("source") = "scene dict",
@@ -686,21 +703,13 @@ rotation (degrees about +Y).)")
 
   m.def(
       "load_scene",
-      [](const std::filesystem::path& path) {
-        Result<scene::Scene> loaded;
-        {
-          py::gil_scoped_release release;
-          loaded = scene::load_scene(path);
-        }
-        auto s = std::make_shared<PyScene>();
-        s->scene = unwrap(std::move(loaded));
-        return s;
-      },
+      [](const std::filesystem::path& path) { return loaded_scene(path); },
       py::arg("path"), R"(load_scene(path) -> Scene
 
 Reads a scene: a .json scene file (docs/scene-format.md), a .gltf/.glb, or a mesh file (one
 object, a default material, a key light). FileNotFoundError for a missing file; ValueError with
-every problem of the file, each at its JSON path.)");
+every problem of the file, each at its JSON path -- feature materials' fields included, checked
+by their features now rather than at the first render.)");
 }
 
 }  // namespace weft::python

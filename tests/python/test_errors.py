@@ -83,3 +83,15 @@ def test_bad_render_arguments():
     with pytest.raises(ValueError, match="uint8"):
         weft.compare(np.zeros((4, 4, 4), np.float32), np.zeros((4, 4, 4), np.uint8))
     assert r.device.validation_messages() == []
+
+
+def test_feature_material_fields_are_checked_when_the_scene_is_read():
+    from conftest import SOURCE
+    with pytest.raises(ValueError) as e:
+        weft.Scene.from_dict({
+            "meshes": {"ball": {"primitive": "sphere"}},
+            "materials": {"fur": {"type": "fur", "photo": str(SOURCE / "examples/fur/synthetic_fur.png"), "layers": 0,
+                                  "layout": "diagonal"}},
+            "objects": [{"mesh": "ball", "material": "fur"}],
+        })
+    assert "$.materials.fur.layers" in str(e.value) and "$.materials.fur.layout" in str(e.value)
