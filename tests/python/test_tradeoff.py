@@ -13,8 +13,10 @@ def test_tradeoff_rows_have_the_clis_errors(tmp_path):
             "-o", tmp_path / "cli")
     with open(tmp_path / "cli" / "tradeoff.csv") as f:
         cli = [row for row in csv.DictReader(line for line in f if not line.startswith("#"))]
+    device = weft.Device()
     rows = weft.tradeoff(weft.load_scene(FUR_SPOT), "fur", size=(32, 24), frames=1, values={"layers": [4, 8]},
-                         out=tmp_path / "py")
+                         device=device, out=tmp_path / "py")
+    assert device.validation_messages() == []
     assert [r["setting"] for r in rows] == [c["setting"] for c in cli]
     assert rows[0]["is_reference"] and rows[0]["rmse"] == 0.0 and rows[0]["pareto"]
     for r, c in zip(rows, cli):
