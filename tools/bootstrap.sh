@@ -12,6 +12,8 @@ packages=(
   libtbb-dev git
   # the viewer (window, UI, headless X for its tests) and the fuzzers
   libglfw3-dev libimgui-dev xvfb xauth libfuzzer-19-dev
+  # the Python module (import weft), its tests and docs/python.md's plot
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
 )
 # Packages whose Debian 12 version is too old: take them from bookworm-backports.
 backported=(cmake mesa-vulkan-drivers libgl1-mesa-dri libglx-mesa0 libegl-mesa0 libgbm1 libglapi-mesa libdrm2 libdrm-amdgpu1)
