@@ -77,9 +77,16 @@ struct Surface::State {
   std::optional<std::uint32_t> acquired;
   bool remake = false;  // the last present() or acquire said the swapchain is suboptimal
 
+  // vkDeviceWaitIdle uses every queue of the device: under the queue lock, since another
+  // thread (the viewer's render thread) may be submitting on it.
+  void wait_device_idle() {
+    std::lock_guard lock(device->mutex);
+    vkDeviceWaitIdle(device->device);
+  }
+
   void destroy_swapchain() {
     if (!device) return;
-    vkDeviceWaitIdle(device->device);
+    wait_device_idle();
     textures.clear();
     for (auto s : rendered) vkDestroySemaphore(device->device, s, nullptr);
     rendered.clear();
@@ -190,7 +197,7 @@ Result<void> Surface::State::make_swapchain(const SurfaceConfiguration& config) 
   if (!caps) return std::unexpected(caps.error());
   const VkExtent2D size = window_extent(*caps, config);
   VkSwapchainKHR old = swapchain;
-  vkDeviceWaitIdle(device->device);
+  wait_device_idle();
   textures.clear();
   for (auto s : rendered) vkDestroySemaphore(device->device, s, nullptr);
   rendered.clear();

@@ -33,83 +33,16 @@ import weft.scene;
 import weft.feature;
 import weft.renderer;
 import weft.tradeoff;
+import weft.study;
 #include "common.h"
 
 namespace weft::python {
 namespace {
 namespace to = weft::tradeoff;
 
-double process_cpu_ms() {
-  timespec t{};
-  ::clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return double(t.tv_sec) * 1e3 + double(t.tv_nsec) / 1e6;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
-
-struct Rendered {
-  to::Row row;
-  image::Image8 image;
-};
-
-Result<Rendered> render_setting(gpu::Device& device, const scene::Scene& base, const to::Study& study, const to::Setting& setting,
-                                const renderer::RenderOptions& defaults, unsigned frames, bool cpu_adapter) {
-  scene::Scene scene = base;
-  if (auto ok = to::apply_setting(scene, study, setting); !ok) return std::unexpected(ok.error());
-  renderer::RenderOptions options = defaults;
-  options.quality = setting.quality;
-  if (study.clear_caches) study.clear_caches();
-  auto r = renderer::Renderer::create(device);
-  if (!r) return std::unexpected(r.error());
-  const auto t0 = std::chrono::steady_clock::now();
-  auto first = r->render(scene, options);
-  if (!first) return with_context(weft::format("setting '{}'", setting.label), first.error());
-  Rendered out;
-  out.row.setting = setting;
-  out.row.cold_frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  std::vector<double> gpu, cpu, feature, process;
-  for (unsigned i = 0; i < frames; ++i) {
-    const double c0 = process_cpu_ms();
-    auto f = r->render(scene, options);
-    if (!f) return with_context(weft::format("setting '{}'", setting.label), f.error());
-    process.push_back(process_cpu_ms() - c0);
-    gpu.push_back(f->stats.gpu_total_ms);
-    cpu.push_back(f->stats.cpu_frame_ms);
-    double ms = 0.0;
-    for (const auto& p : f->stats.passes)
-      if (std::find(study.passes.begin(), study.passes.end(), p.name) != study.passes.end()) ms += p.gpu_ms;
-    feature.push_back(ms);
-    if (i + 1 == frames) out.image = std::move(f->image);
-  }
-  if (frames == 0) out.image = std::move(first->image);
-  out.row.gpu_ms = median(gpu);
-  out.row.wall_ms = median(cpu);
-  out.row.feature_gpu_ms = median(feature);
-  out.row.process_cpu_ms = median(process);
-  out.row.frame_ms = cpu_adapter ? out.row.process_cpu_ms : out.row.gpu_ms;
-  return out;
-}
-
-Result<image::Image8> coverage_render(gpu::Device& device, const scene::Scene& base, const to::Study& study,
-                                      const renderer::RenderOptions& options, bool white) {
-  scene::Scene scene = base;
-  for (auto& m : scene.materials) {
-    if (m.type != study.material) continue;
-    m.type = scene::standard_material;
-    m.standard = {};
-    m.standard.base_color = vec3(0.0f);
-    m.standard.emissive = vec3(white ? 1e4f : 0.0f);
-  }
-  auto r = renderer::Renderer::create(device);
-  if (!r) return std::unexpected(r.error());
-  auto f = r->render(scene, options);
-  if (!f) return with_context("the coverage frame", f.error());
-  return std::move(f->image);
-}
+using Rendered = study::RenderedSetting;
+using study::coverage_render;
+using study::render_setting;
 
 struct StudyResult {
   std::vector<to::Row> rows;

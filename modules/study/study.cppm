@@ -1,0 +1,36 @@
+// weft.study — a trade-off study's frames: each setting of tradeoff::plan_sweep rendered in a
+// fresh renderer (the feature's process-wide caches dropped first, so the first frame is cold)
+// and timed, and the coverage frames that give the feature's mask. weft.tradeoff plans, masks
+// and scores without a GPU; this is the part that renders, shared by `weft tradeoff` and the
+// Python module so both measure the same way.
+module;
+#include <expected>
+#include <string>
+#include <vector>
+export module weft.study;
+import weft.core;
+import weft.gpu;
+import weft.image;
+import weft.scene;
+import weft.renderer;
+import weft.tradeoff;
+
+export namespace weft::study {
+
+struct RenderedSetting {
+  tradeoff::Row row;          // the setting, its cold frame and the medians of the steady frames
+  image::Image8 image;        // the last frame
+  std::vector<std::string> warnings;  // the first frame's (clamped knobs, weak inputs)
+};
+
+// One setting: `frames` steady frames after the timed cold one. `cpu_adapter`: the cost axis
+// is the process's CPU time per frame (lavapipe's rasteriser included) instead of GPU time.
+Result<RenderedSetting> render_setting(gpu::Device& device, const scene::Scene& base, const tradeoff::Study& study,
+                                       const tradeoff::Setting& setting, const renderer::RenderOptions& defaults,
+                                       unsigned frames, bool cpu_adapter);
+
+// The feature's objects drawn flat black (white: emissive white) in place of its material.
+Result<image::Image8> coverage_render(gpu::Device& device, const scene::Scene& base, const tradeoff::Study& study,
+                                      const renderer::RenderOptions& options, bool white);
+
+}  // namespace weft::study
