@@ -65,7 +65,7 @@ CommandEncoder& CommandEncoder::operator=(CommandEncoder&& o) noexcept {
   return *this;
 }
 CommandEncoder::~CommandEncoder() {
-  if (device_ && pool_) vkDestroyCommandPool(device_->device, pool_, nullptr);
+  if (device_ && cmd_) vkFreeCommandBuffers(device_->device, pool_, 1, &cmd_);
 }
 
 void CommandEncoder::report_error(Error error) {
@@ -103,7 +103,7 @@ CommandBuffer& CommandBuffer::operator=(CommandBuffer&& o) noexcept {
   return *this;
 }
 CommandBuffer::~CommandBuffer() {
-  if (device_ && pool_) vkDestroyCommandPool(device_->device, pool_, nullptr);
+  if (device_ && cmd_) vkFreeCommandBuffers(device_->device, pool_, 1, &cmd_);
 }
 
 void CommandEncoder::push_debug_group(std::string_view label) {
@@ -690,14 +690,12 @@ Result<std::vector<std::byte>> Queue::read_buffer(const Buffer& buffer, std::uin
 namespace weft::gpu::detail {
 
 Result<CommandEncoder> DeviceShared::make_encoder(const std::shared_ptr<DeviceShared>& self, std::string_view label) {
-  VkCommandPoolCreateInfo pool{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-  pool.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
-  pool.queueFamilyIndex = self->queue_family;
+  auto pool = self->thread_pool();
+  if (!pool) return with_context(weft::format("creating command encoder '{}'", label), pool.error());
   CommandEncoder encoder;
   encoder.device_ = self;
   encoder.label_ = label;
-  if (VkResult r = vkCreateCommandPool(self->device, &pool, nullptr, &encoder.pool_); r != VK_SUCCESS)
-    return std::unexpected(vk_error(r, weft::format("creating the command pool of encoder '{}'", label)));
+  encoder.pool_ = *pool;
   VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
   alloc.commandPool = encoder.pool_;
   alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;

@@ -679,7 +679,7 @@ class CommandBuffer {
  private:
   CommandBuffer() = default;
   std::shared_ptr<detail::DeviceShared> device_;
-  VkCommandPool pool_ = VK_NULL_HANDLE;  // the encoder's own pool (destroying it frees cmd_)
+  VkCommandPool pool_ = VK_NULL_HANDLE;  // the recording thread's pool, which cmd_ is freed to
   VkCommandBuffer cmd_ = VK_NULL_HANDLE;
   std::string label_;
   friend class CommandEncoder;
@@ -807,8 +807,9 @@ class CommandEncoder {
   CommandEncoder() = default;
   bool check_outside_pass(std::string_view what);
   std::shared_ptr<detail::DeviceShared> device_;
-  // A pool per encoder: a pool must not be used by two threads at once, and two threads may
-  // record on one device (the viewer's window and render threads).
+  // The recording thread's pool (DeviceShared::thread_pool): a pool must not be used by two
+  // threads at once, and two threads may record on one device (the viewer's window and
+  // render threads). Record, submit and drop an encoder on the thread that made it.
   VkCommandPool pool_ = VK_NULL_HANDLE;
   VkCommandBuffer cmd_ = VK_NULL_HANDLE;
   std::string label_;
@@ -979,12 +980,17 @@ struct DeviceShared {
   // and the VkQueue (submit, present), which Vulkan wants externally synchronised.
   struct Pending {
     VkFence fence;
-    VkCommandPool pool;  // holds the submitted command buffer
+    VkCommandPool pool;  // the submitted command buffer's
+    VkCommandBuffer cmd;
     std::thread::id thread;
   };
   std::mutex mutex;
   std::vector<Pending> pending;
-  // Submits one command buffer signalling `signal` (if any) and keeps it pending; takes the pool.
+  std::map<std::thread::id, VkCommandPool> pools;  // one command pool per recording thread
+  // The calling thread's command pool, made on first use.
+  Result<VkCommandPool> thread_pool();
+  // Submits one command buffer signalling `signal` (if any) and keeps it pending until the
+  // thread waits; the buffer is freed then (or at once if the submit fails).
   Result<void> submit(VkCommandPool pool, VkCommandBuffer cmd, VkSemaphore signal, std::string_view label);
   ~DeviceShared();
 

@@ -390,8 +390,9 @@ DeviceShared::~DeviceShared() {
   vkDeviceWaitIdle(device);
   for (auto& p : pending) {
     vkDestroyFence(device, p.fence, nullptr);
-    vkDestroyCommandPool(device, p.pool, nullptr);
+    vkFreeCommandBuffers(device, p.pool, 1, &p.cmd);
   }
+  for (auto& [thread, pool] : pools) vkDestroyCommandPool(device, pool, nullptr);
   vkDestroyDevice(device, nullptr);
 }
 
@@ -408,11 +409,26 @@ void DeviceShared::set_name(VkObjectType type, std::uint64_t handle, std::string
   fn(device, &name_info);
 }
 
+Result<VkCommandPool> DeviceShared::thread_pool() {
+  std::lock_guard lock(mutex);
+  auto& pool = pools[std::this_thread::get_id()];
+  if (!pool) {
+    VkCommandPoolCreateInfo info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+    info.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+    info.queueFamilyIndex = queue_family;
+    if (VkResult r = vkCreateCommandPool(device, &info, nullptr, &pool); r != VK_SUCCESS) {
+      pool = VK_NULL_HANDLE;
+      return std::unexpected(vk_error(r, "vkCreateCommandPool"));
+    }
+  }
+  return pool;
+}
+
 Result<void> DeviceShared::submit(VkCommandPool pool, VkCommandBuffer cmd, VkSemaphore signal, std::string_view label) {
   VkFenceCreateInfo fence_info{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
   VkFence fence = VK_NULL_HANDLE;
   if (VkResult r = vkCreateFence(device, &fence_info, nullptr, &fence); r != VK_SUCCESS) {
-    vkDestroyCommandPool(device, pool, nullptr);
+    vkFreeCommandBuffers(device, pool, 1, &cmd);
     return std::unexpected(vk_error(r, "creating a fence"));
   }
   VkCommandBufferSubmitInfo buffer{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
@@ -428,10 +444,10 @@ Result<void> DeviceShared::submit(VkCommandPool pool, VkCommandBuffer cmd, VkSem
   std::lock_guard lock(mutex);
   if (VkResult r = vkQueueSubmit2(queue, 1, &submit, fence); r != VK_SUCCESS) {
     vkDestroyFence(device, fence, nullptr);
-    vkDestroyCommandPool(device, pool, nullptr);
+    vkFreeCommandBuffers(device, pool, 1, &cmd);
     return std::unexpected(vk_error(r, weft::format("submitting '{}'", label)));
   }
-  pending.push_back({fence, pool, std::this_thread::get_id()});
+  pending.push_back({fence, pool, cmd, std::this_thread::get_id()});
   return {};
 }
 
@@ -453,7 +469,7 @@ Result<void> DeviceShared::wait_idle() {
   const VkResult r = vkWaitForFences(device, std::uint32_t(fences.size()), fences.data(), VK_TRUE, UINT64_MAX);
   for (auto& p : mine) {
     vkDestroyFence(device, p.fence, nullptr);
-    vkDestroyCommandPool(device, p.pool, nullptr);
+    vkFreeCommandBuffers(device, p.pool, 1, &p.cmd);  // this thread's pool: no other thread uses it
   }
   if (r != VK_SUCCESS) return std::unexpected(vk_error(r, "waiting for the queue"));
   return {};
