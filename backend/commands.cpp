@@ -584,7 +584,7 @@ Result<void> Queue::write_buffer(const Buffer& buffer, std::uint64_t offset, std
   if (offset + data.size() > buffer.size())
     return fail(ErrorKind::InvalidArgument, "writing {} bytes at offset {} overflows buffer '{}' of {} bytes",
                 data.size(), offset, buffer.label(), buffer.size());
-  if (data.empty()) return {};
+  if (data.empty() || device_->declaring()) return {};  // a declaring device's: nothing will read it
   if (buffer.mapped_) {
     std::memcpy(buffer.mapped_ + offset, data.data(), data.size());
     return {};
@@ -621,6 +621,7 @@ Result<void> Queue::write_texture(const Texture& texture, std::span<const std::b
   if (!has(texture.usage(), TextureUsage::CopyDst))
     return fail(ErrorKind::InvalidArgument, "writing texture '{}' needs copy-dst usage (has {})", texture.label(),
                 to_string(texture.usage()));
+  if (device_->declaring()) return {};  // nothing will read it
   auto stage = DeviceShared::make_buffer(device_, {texture.label() + " (staging)", bytes, BufferUsage::MapWrite}, {});
   if (!stage) return std::unexpected(stage.error());
   std::memcpy(stage->mapped_, data.data(), data.size());
@@ -690,6 +691,9 @@ Result<std::vector<std::byte>> Queue::read_buffer(const Buffer& buffer, std::uin
 namespace weft::gpu::detail {
 
 Result<CommandEncoder> DeviceShared::make_encoder(const std::shared_ptr<DeviceShared>& self, std::string_view label) {
+  if (self->declaring())
+    return fail(ErrorKind::Unsupported, "command encoder '{}': device '{}' only declares; nothing can be recorded or "
+                "submitted on it", label, self->info.name);
   auto pool = self->thread_pool();
   if (!pool) return with_context(weft::format("creating command encoder '{}'", label), pool.error());
   CommandEncoder encoder;

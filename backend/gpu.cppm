@@ -847,6 +847,16 @@ class Queue {
 
 class Device {
  public:
+  // A device without an adapter, in the manner of wgpu's noop backend: create_* check their
+  // descriptors as always and return objects that keep their descriptors (labels, sizes,
+  // formats, usages) but own no driver object; queue writes are dropped. Recording,
+  // submitting and reading back fail (Unsupported). It needs no Vulkan driver, so a frame
+  // can be declared and compiled where there is none (Renderer::describe, `weft graph check`).
+  static Device create_declaring(std::string label = "declaring");
+  // True for a create_declaring() device: features skip bakes and uploads that only feed
+  // the GPU (nothing would run), and the graph compiles without it.
+  [[nodiscard]] bool declaring() const;
+
   Device(Device&&) noexcept;
   Device& operator=(Device&&) noexcept;
   ~Device();
@@ -987,6 +997,8 @@ struct DeviceShared {
   std::mutex mutex;
   std::vector<Pending> pending;
   std::map<std::thread::id, VkCommandPool> pools;  // one command pool per recording thread
+  // A Device::create_declaring() device: no VkDevice, objects without driver handles.
+  [[nodiscard]] bool declaring() const { return device == VK_NULL_HANDLE; }
   // The calling thread's command pool, made on first use.
   Result<VkCommandPool> thread_pool();
   // Submits one command buffer signalling `signal` (if any) and keeps it pending until the

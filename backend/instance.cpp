@@ -372,10 +372,35 @@ Result<Device> Adapter::request_device(const DeviceDescriptor& desc) const {
   return device;
 }
 
+Device Device::create_declaring(std::string label) {
+  auto shared = std::make_shared<DeviceShared>();
+  shared->info.name = label + " (no adapter: declares, never executes)";
+  shared->info.driver = "none";
+  shared->info.type = AdapterType::Other;
+  // A desktop adapter's limits (lavapipe's and most GPUs' texture size; Vulkan's guaranteed
+  // minimums for the rest), where weft reads a limit to choose a size: a shadow map's
+  // resolution is capped by max_texture_dimension_2d.
+  shared->info.limits.max_texture_dimension_2d = 16384;
+  shared->info.limits.max_push_constant_size = 128;
+  shared->info.limits.max_bound_descriptor_sets = 4;
+  shared->info.limits.max_compute_workgroup_size = {128, 128, 64};
+  shared->info.limits.max_compute_invocations = 128;
+  shared->info.limits.max_storage_buffer_range = std::uint64_t(1) << 27;
+  shared->info.limits.min_uniform_buffer_offset_alignment = 256;
+  shared->info.limits.min_storage_buffer_offset_alignment = 256;
+  shared->info.limits.max_compute_shared_memory = 16384;
+  Device device;
+  device.shared_ = shared;
+  device.queue_.device_ = shared;
+  return device;
+}
+
+bool Device::declaring() const { return shared_ && shared_->declaring(); }
+
 Device::Device(Device&&) noexcept = default;
 Device& Device::operator=(Device&&) noexcept = default;
 Device::~Device() {
-  if (shared_) (void)shared_->wait_idle();
+  if (shared_ && !shared_->declaring()) (void)shared_->wait_idle();
 }
 
 const AdapterInfo& Device::adapter_info() const { return shared_->info; }
@@ -397,7 +422,7 @@ DeviceShared::~DeviceShared() {
 }
 
 void DeviceShared::set_name(VkObjectType type, std::uint64_t handle, std::string_view name) const {
-  if (!instance->debug_utils || name.empty() || !handle) return;
+  if (!instance || !instance->debug_utils || name.empty() || !handle) return;
   auto fn = reinterpret_cast<PFN_vkSetDebugUtilsObjectNameEXT>(
       vkGetInstanceProcAddr(instance->instance, "vkSetDebugUtilsObjectNameEXT"));
   if (!fn) return;

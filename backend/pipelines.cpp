@@ -37,6 +37,7 @@ Result<ShaderModule> Device::create_shader_module(const ShaderModuleDescriptor& 
   module.device_ = shared_;
   module.stage_ = desc.stage;
   module.label_ = desc.label;
+  if (shared_->declaring()) return module;
   if (VkResult r = vkCreateShaderModule(shared_->device, &info, nullptr, &module.module_); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("creating shader module '{}'", desc.label)));
   shared_->set_name(VK_OBJECT_TYPE_SHADER_MODULE, std::uint64_t(module.module_), desc.label);
@@ -79,6 +80,7 @@ Result<BindGroupLayout> Device::create_bind_group_layout(const BindGroupLayoutDe
   BindGroupLayout layout;
   layout.device_ = shared_;
   layout.desc_ = desc;
+  if (shared_->declaring()) return layout;
   if (VkResult r = vkCreateDescriptorSetLayout(shared_->device, &info, nullptr, &layout.layout_); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("creating bind group layout '{}'", desc.label)));
   shared_->set_name(VK_OBJECT_TYPE_DESCRIPTOR_SET_LAYOUT, std::uint64_t(layout.layout_), desc.label);
@@ -176,6 +178,7 @@ Result<BindGroup> Device::create_bind_group(const BindGroupDescriptor& desc) {
   group.device_ = shared_;
   group.label_ = desc.label;
   group.layout_ = desc.layout->layout_;
+  if (shared_->declaring()) return group;
   VkDescriptorPoolCreateInfo pool{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   pool.maxSets = 1;
   pool.poolSizeCount = std::uint32_t(sizes.size());
@@ -264,6 +267,7 @@ Result<PipelineLayout> Device::create_pipeline_layout(const PipelineLayoutDescri
   info.pSetLayouts = layout.set_layouts_.data();
   info.pushConstantRangeCount = desc.push_constant_size ? 1 : 0;
   info.pPushConstantRanges = &range;
+  if (shared_->declaring()) return layout;
   if (VkResult r = vkCreatePipelineLayout(shared_->device, &info, nullptr, &layout.layout_); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("creating pipeline layout '{}'", desc.label)));
   shared_->set_name(VK_OBJECT_TYPE_PIPELINE_LAYOUT, std::uint64_t(layout.layout_), desc.label);
@@ -420,6 +424,7 @@ Result<RenderPipeline> Device::create_render_pipeline(const RenderPipelineDescri
   pipeline.label_ = desc.label;
   for (const auto& t : desc.color_targets) pipeline.color_formats_.push_back(t.format);
   pipeline.depth_format_ = desc.depth_stencil ? desc.depth_stencil->format : Format::Undefined;
+  if (shared_->declaring()) return pipeline;
   if (VkResult r = vkCreateGraphicsPipelines(shared_->device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline.pipeline_);
       r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("creating render pipeline '{}'", desc.label)));
@@ -457,6 +462,7 @@ Result<ComputePipeline> Device::create_compute_pipeline(const ComputePipelineDes
   pipeline.layout_ = desc.layout->layout_;
   pipeline.push_constant_size_ = desc.layout->push_constant_size();
   pipeline.label_ = desc.label;
+  if (shared_->declaring()) return pipeline;
   if (VkResult r = vkCreateComputePipelines(shared_->device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline.pipeline_);
       r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("creating compute pipeline '{}'", desc.label)));

@@ -77,6 +77,9 @@ Result<void> check_placement(const Placement& p, const VkMemoryRequirements& req
 
 Result<MemoryBlock> Device::create_memory_block(std::string_view label, std::uint64_t size, std::uint32_t type_bits) {
   if (size == 0) return fail(ErrorKind::InvalidArgument, "memory block '{}': size is 0", label);
+  if (shared_->declaring())
+    return fail(ErrorKind::Unsupported, "memory block '{}': device '{}' has no adapter to allocate from", label,
+                shared_->info.name);
   VkMemoryRequirements req{size, 1, type_bits};
   auto alloc = shared_->allocate(req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, label);
   if (!alloc) return std::unexpected(alloc.error());
@@ -167,6 +170,9 @@ Result<MemoryRequirements> Device::memory_requirements(const BufferDescriptor& d
   VkMemoryRequirements2 out{VK_STRUCTURE_TYPE_MEMORY_REQUIREMENTS_2};
   if (desc.size == 0 || info.usage == 0)
     return fail(ErrorKind::InvalidArgument, "buffer '{}': size and usage must be non-zero", desc.label);
+  if (shared_->declaring())
+    return fail(ErrorKind::Unsupported, "buffer '{}': device '{}' has no adapter to ask for memory requirements",
+                desc.label, shared_->info.name);
   vkGetDeviceBufferMemoryRequirements(shared_->device, &q, &out);
   return MemoryRequirements{out.memoryRequirements.size, out.memoryRequirements.alignment,
                             out.memoryRequirements.memoryTypeBits};
@@ -200,6 +206,7 @@ Result<Buffer> DeviceShared::make_buffer(const std::shared_ptr<DeviceShared>& sh
   buffer.size_ = desc.size;
   buffer.usage_ = desc.usage;
   buffer.label_ = desc.label;
+  if (shared_->declaring()) return buffer;
   if (VkResult r = vkCreateBuffer(shared_->device, &info, nullptr, &buffer.buffer_); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("creating buffer '{}'", desc.label)));
   shared_->set_name(VK_OBJECT_TYPE_BUFFER, std::uint64_t(buffer.buffer_), desc.label);
@@ -322,6 +329,9 @@ VkImageViewType view_type(TextureDimension d) {
 Result<MemoryRequirements> Device::memory_requirements(const TextureDescriptor& desc) const {
   auto info = image_info(desc, shared_->info);
   if (!info) return std::unexpected(info.error());
+  if (shared_->declaring())
+    return fail(ErrorKind::Unsupported, "texture '{}': device '{}' has no adapter to ask for memory requirements",
+                desc.label, shared_->info.name);
   VkDeviceImageMemoryRequirements q{VK_STRUCTURE_TYPE_DEVICE_IMAGE_MEMORY_REQUIREMENTS, nullptr, &*info};
   VkMemoryRequirements2 out{VK_STRUCTURE_TYPE_MEMORY_REQUIREMENTS_2};
   vkGetDeviceImageMemoryRequirements(shared_->device, &q, &out);
@@ -335,6 +345,12 @@ Result<Texture> Device::create_texture(const TextureDescriptor& desc, Placement 
   Texture texture;
   texture.device_ = shared_;
   texture.desc_ = desc;
+  if (shared_->declaring()) {
+    texture.default_view_.reset(new TextureView());
+    texture.default_view_->mip_count_ = desc.mip_level_count;
+    texture.fix_view_back_pointer();
+    return texture;
+  }
   if (VkResult r = vkCreateImage(shared_->device, &*info, nullptr, &texture.image_); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("creating texture '{}'", desc.label)));
   shared_->set_name(VK_OBJECT_TYPE_IMAGE, std::uint64_t(texture.image_), desc.label);
@@ -380,6 +396,7 @@ Result<TextureView> Texture::create_view(const TextureViewDescriptor& d) const {
   view.texture_ = this;
   view.base_mip_ = d.base_mip;
   view.mip_count_ = d.mip_count;
+  if (!image_) return view;  // a declaring device's texture: a view of nothing, like its texture
   if (VkResult r = vkCreateImageView(device_->device, &info, nullptr, &view.view_); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("creating a view of texture '{}'", desc_.label)));
   return view;
@@ -456,6 +473,7 @@ Result<Sampler> Device::create_sampler(const SamplerDescriptor& desc) {
   sampler.device_ = shared_;
   sampler.label_ = desc.label;
   sampler.comparison_ = desc.compare.has_value();
+  if (shared_->declaring()) return sampler;
   if (VkResult r = vkCreateSampler(shared_->device, &info, nullptr, &sampler.sampler_); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("creating sampler '{}'", desc.label)));
   shared_->set_name(VK_OBJECT_TYPE_SAMPLER, std::uint64_t(sampler.sampler_), desc.label);

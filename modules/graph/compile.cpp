@@ -704,7 +704,10 @@ std::expected<CompiledGraph, GraphErrors> RenderGraph::compile(const CompileOpti
                                                    data_->current_pass_name()),
                                        {std::string(data_->current_pass_name())}, {}});
   detail::validate_and_schedule(*data_, *state, errors.errors);
-  if (errors.empty()) detail::plan_frame(*data_, *state, options.device, false, errors.errors);
+  // A declaring device (gpu::Device::create_declaring) has no memory to ask about: its frame
+  // is sized by estimate, as without a device.
+  const gpu::Device* sizing = options.device && !options.device->declaring() ? options.device : nullptr;
+  if (errors.empty()) detail::plan_frame(*data_, *state, sizing, false, errors.errors);
   if (!errors.empty()) return std::unexpected(std::move(errors));
   return CompiledGraph(std::move(state));
 }

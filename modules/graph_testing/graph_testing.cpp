@@ -4,6 +4,7 @@ module;
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -14,6 +15,8 @@ import weft.core;
 import weft.gpu;
 import weft.graph;
 import weft.pipeline;
+import weft.scene;
+import weft.renderer;
 
 namespace weft::testing {
 namespace {
@@ -165,6 +168,26 @@ Failure expect_pipeline_error(const std::filesystem::path& file, std::string_vie
     what.erase(at, folder.size());
   if (what == message) return std::nullopt;
   return weft::format("'{}': expected\n{}\ngot\n{}", file.string(), message, what);
+}
+
+Failure expect_scene_frame(const scene::Scene& scene, const renderer::RenderOptions& options,
+                           const std::function<Failure(const CompiledGraph&)>& check) {
+  Failure failure;
+  auto report = renderer::describe(scene, options, [&](const CompiledGraph& graph) {
+    if (check) failure = check(graph);
+  });
+  if (!report) return weft::format("the frame does not compile: {}", report.error().what());
+  return failure;
+}
+
+Failure expect_scene_frame_error(const scene::Scene& scene, const renderer::RenderOptions& options,
+                                 std::string_view message_part) {
+  auto report = renderer::describe(scene, options);
+  if (report) return weft::format("the frame compiled; expected an error containing '{}'", message_part);
+  const std::string what = report.error().what();
+  if (what.find(message_part) == std::string::npos)
+    return weft::format("the frame's error does not contain '{}': {}", message_part, what);
+  return std::nullopt;
 }
 
 }  // namespace weft::testing

@@ -1,12 +1,13 @@
 // weft.graph_testing — the test kit for users' own frames, installed with weft: expectations
 // on a compiled graph (order, culling, barriers, memory), on a failed compile (the kind of
 // error, the passes and resources it names, its message) and a golden DOT file, plus a
-// pipeline file checked without a device. Every check returns nothing when it holds and a
+// pipeline file and a scene's whole frame checked without a device. Every check returns nothing when it holds and a
 // message saying what differs otherwise, so it works with any test framework:
 //   if (auto why = weft::testing::expect_order(compiled, {"shadow_map", "forward"})) FAIL(*why);
 module;
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -16,6 +17,8 @@ import weft.core;
 import weft.gpu;
 import weft.graph;
 import weft.pipeline;
+import weft.scene;
+import weft.renderer;
 
 export namespace weft::testing {
 
@@ -49,5 +52,16 @@ Failure expect_golden_dot(const CompiledGraph& graph, const std::filesystem::pat
 Failure expect_pipeline_valid(const std::filesystem::path& file);
 // It fails, with exactly this message (Error::what(), the file's folder left out).
 Failure expect_pipeline_error(const std::filesystem::path& file, std::string_view message);
+
+// A scene's whole frame (its pipeline, or options.pipeline / pipeline_file; the features its
+// materials use) declared and compiled with no adapter (weft::renderer::describe on a
+// declaring device), then `check` run on the compiled graph. Fails with the frame's error
+// when it does not compile. Register the pass types and features first
+// (weft::register_builtins(), plugins).
+Failure expect_scene_frame(const scene::Scene& scene, const renderer::RenderOptions& options,
+                           const std::function<Failure(const CompiledGraph&)>& check);
+// The same scene's frame fails to compile, its message containing `message_part`.
+Failure expect_scene_frame_error(const scene::Scene& scene, const renderer::RenderOptions& options,
+                                 std::string_view message_part);
 
 }  // namespace weft::testing

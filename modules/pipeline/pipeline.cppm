@@ -41,12 +41,26 @@ struct PassOption {
   std::vector<std::string> choices;  // Choice
   nlohmann::json default_value;
   std::string meaning;               // one line
+  // The values `weft tradeoff --pass` tries, one at a time (empty: the option trades no
+  // accuracy for speed and is not swept, e.g. an effect's strength).
+  std::vector<nlohmann::json> sweep;
+  // The bounds the stability sweep renders where `min` or `max` would cost too much to render
+  // in a test (a 16384² shadow map is 1 GiB); unset: the range's own. Why is said where the
+  // option is written.
+  std::optional<double> extreme_min, extreme_max;
 };
-PassOption number_option(std::string name, double min, double max, double default_value, std::string meaning);
-PassOption integer_option(std::string name, double min, double max, std::int64_t default_value, std::string meaning);
+PassOption number_option(std::string name, double min, double max, double default_value, std::string meaning,
+                         std::vector<nlohmann::json> sweep = {});
+PassOption integer_option(std::string name, double min, double max, std::int64_t default_value, std::string meaning,
+                          std::vector<nlohmann::json> sweep = {});
 PassOption boolean_option(std::string name, bool default_value, std::string meaning);
 PassOption choice_option(std::string name, std::vector<std::string> choices, std::string default_value,
                          std::string meaning);
+// The option with the bounds the stability sweep renders instead of its range.
+PassOption with_extremes(PassOption option, std::optional<double> extreme_min, std::optional<double> extreme_max);
+// The values the stability sweep renders an option at: both ends of its range (or its
+// extremes), both booleans, every choice.
+std::vector<nlohmann::json> extreme_values(const PassOption& option);
 
 // A pass's options after reading: every option of its table, given or defaulted.
 class PassOptions {
@@ -157,6 +171,11 @@ struct PassTypeDescriptor {
   std::vector<Slot> inputs, outputs;
   std::vector<PassOption> options;
   FramePassFactory create = nullptr;
+  // For `weft tradeoff --pass` and the stability sweep: the option values of the pass's most
+  // accurate setting, and why in one line. Empty: the pass trades no accuracy for speed (an
+  // effect such as bloom), so it has no study.
+  nlohmann::json reference = nlohmann::json::object();
+  std::string reference_why;
 };
 
 // The pass types of this process, in registration order. Thread-safe; descriptors live as
@@ -235,6 +254,10 @@ std::string_view default_pipeline_text();
 Result<Pipeline> default_pipeline();
 // The pipeline as a file: what `weft graph --export-pipeline` writes (reads back equal).
 std::string to_json(const Pipeline& pipeline);
+// The pipeline with options of one pass replaced (`values`: option name -> value), checked as
+// the file reader checks them (names, kinds, ranges, choices: errors at their JSON path).
+// What the viewer's option widgets, `weft tradeoff --pass` and the stability sweep apply.
+Result<Pipeline> with_options(const Pipeline& pipeline, std::string_view pass, const nlohmann::json& values);
 
 // Markdown of every registered pass type: summary, slots and the options table (docs).
 std::string pass_types_markdown();

@@ -453,6 +453,19 @@ std::string to_json(const Pipeline& p) {
   return root.dump(2) + "\n";
 }
 
+Result<Pipeline> with_options(const Pipeline& pipeline, std::string_view pass, const nlohmann::json& values) {
+  if (!pipeline.find(pass))
+    return fail(ErrorKind::NotFound, "{}: no pass '{}' to set options of", pipeline.source, pass);
+  if (!values.is_object())
+    return fail(ErrorKind::InvalidArgument, "{}: options of pass '{}' must be an object of name: value", pipeline.source, pass);
+  auto root = nlohmann::ordered_json::parse(to_json(pipeline));
+  auto& options = root["passes"][std::string(pass)]["options"];
+  for (const auto& [name, value] : values.items()) options[name] = value;
+  auto changed = parse_pipeline(root.dump(2), pipeline.source);
+  if (!changed) return std::unexpected(changed.error());
+  return changed;
+}
+
 std::string pass_types_markdown() {
   std::string out;
   const auto kind_text = [](const PassOption& o) -> std::string {
@@ -489,6 +502,18 @@ std::string pass_types_markdown() {
       for (const auto& o : d->options)
         out += weft::format("| `{}` | {} | `{}` | {} |\n", o.name, kind_text(o), o.default_value.dump(), o.meaning);
       out += "\n";
+    }
+    if (!d->reference.empty()) {
+      std::string sweeps;
+      for (const auto& o : d->options) {
+        if (o.sweep.empty()) continue;
+        std::string values;
+        for (const auto& v : o.sweep) values += (values.empty() ? "" : ", ") + v.dump();
+        sweeps += weft::format("{}`{}` {}", sweeps.empty() ? "" : "; ", o.name, values);
+      }
+      out += weft::format("Studied by `weft tradeoff SCENE --pass {}` (docs/tradeoffs.md): reference `{}` ({}); "
+                          "sweeps {}.\n\n",
+                          d->name, d->reference.dump(), d->reference_why, sweeps.empty() ? "none" : sweeps);
     }
   }
   return out;

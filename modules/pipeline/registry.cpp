@@ -10,6 +10,7 @@ module;
 #include <memory>
 #include <mutex>
 #include <set>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -20,11 +21,13 @@ import weft.core;
 
 namespace weft::pipeline {
 
-PassOption number_option(std::string name, double min, double max, double default_value, std::string meaning) {
-  return {std::move(name), KnobKind::Number, min, max, {}, default_value, std::move(meaning)};
+PassOption number_option(std::string name, double min, double max, double default_value, std::string meaning,
+                         std::vector<nlohmann::json> sweep) {
+  return {std::move(name), KnobKind::Number, min, max, {}, default_value, std::move(meaning), std::move(sweep)};
 }
-PassOption integer_option(std::string name, double min, double max, std::int64_t default_value, std::string meaning) {
-  return {std::move(name), KnobKind::Integer, min, max, {}, default_value, std::move(meaning)};
+PassOption integer_option(std::string name, double min, double max, std::int64_t default_value, std::string meaning,
+                          std::vector<nlohmann::json> sweep) {
+  return {std::move(name), KnobKind::Integer, min, max, {}, default_value, std::move(meaning), std::move(sweep)};
 }
 PassOption boolean_option(std::string name, bool default_value, std::string meaning) {
   return {std::move(name), KnobKind::Boolean, 0, 1, {}, default_value, std::move(meaning)};
@@ -32,6 +35,21 @@ PassOption boolean_option(std::string name, bool default_value, std::string mean
 PassOption choice_option(std::string name, std::vector<std::string> choices, std::string default_value,
                          std::string meaning) {
   return {std::move(name), KnobKind::Choice, 0, 0, std::move(choices), std::move(default_value), std::move(meaning)};
+}
+PassOption with_extremes(PassOption option, std::optional<double> extreme_min, std::optional<double> extreme_max) {
+  option.extreme_min = extreme_min;
+  option.extreme_max = extreme_max;
+  return option;
+}
+std::vector<nlohmann::json> extreme_values(const PassOption& o) {
+  switch (o.kind) {
+    case KnobKind::Integer:
+      return {std::int64_t(o.extreme_min.value_or(o.min)), std::int64_t(o.extreme_max.value_or(o.max))};
+    case KnobKind::Number: return {o.extreme_min.value_or(o.min), o.extreme_max.value_or(o.max)};
+    case KnobKind::Boolean: return {false, true};
+    case KnobKind::Choice: return {o.choices.begin(), o.choices.end()};
+  }
+  return {};
 }
 
 namespace {

@@ -7,6 +7,7 @@ module;
 #include <memory>
 #include <map>
 #include <filesystem>
+#include <functional>
 #include <set>
 #include <optional>
 #include <span>
@@ -217,7 +218,9 @@ Result<void> Renderer::State::upload_scene(const scene::Scene& scene) {
 // slot, and the material is drawn as if it had none.
 const gpu::TextureView* Renderer::State::material_texture(const scene::Texture& texture, bool srgb,
                                                           std::string_view material, std::string_view slot) {
-  if (texture.empty()) return nullptr;
+  // A declared frame draws nothing: material maps are bound per draw, not resources of the
+  // graph, so they are not read at all.
+  if (texture.empty() || device->declaring()) return nullptr;
   std::string key = srgb ? "srgb:" : "linear:";
   if (!texture.path.empty()) {
     key += texture.path.string();
@@ -605,7 +608,16 @@ Result<std::pair<std::uint32_t, std::uint32_t>> frame_size(const scene::Scene& s
 }
 }  // namespace
 
-Result<GraphReport> Renderer::describe(const scene::Scene& scene, const RenderOptions& options) {
+Result<GraphReport> describe(const scene::Scene& scene, const RenderOptions& options,
+                             const std::function<void(const CompiledGraph&)>& inspect) {
+  gpu::Device device = gpu::Device::create_declaring("describe");
+  auto renderer = Renderer::create(device);
+  if (!renderer) return std::unexpected(renderer.error());
+  return renderer->describe(scene, options, inspect);
+}
+
+Result<GraphReport> Renderer::describe(const scene::Scene& scene, const RenderOptions& options,
+                                       const std::function<void(const CompiledGraph&)>& inspect) {
   auto size = frame_size(scene, options);
   if (!size) return std::unexpected(size.error());
   const bool key = has_key_light(scene);
@@ -620,6 +632,7 @@ Result<GraphReport> Renderer::describe(const scene::Scene& scene, const RenderOp
   if (!built) return std::unexpected(built.error());
   auto compiled = (*built)->compile({.output_extent = {size->first, size->second, 1}, .device = s.device});
   if (!compiled) return std::unexpected(compiled.error().to_error());
+  if (inspect) inspect(*compiled);
   GraphReport report{compiled->to_dot(), compiled->dump(), {}, {}};
   for (auto index : compiled->order()) report.passes.emplace_back(compiled->passes()[index].name);
   for (const auto& p : compiled->passes())
@@ -711,6 +724,9 @@ Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& o
   const auto [w, h] = *size;
   const bool key = has_key_light(scene);
   auto& s = *state_;
+  if (s.device->declaring())
+    return fail(ErrorKind::Unsupported, "this renderer's device ('{}') has no adapter: it declares and compiles frames "
+                "(describe) but renders none", s.device->adapter_info().name);
   auto pipeline = s.choose_pipeline(scene, options);
   if (!pipeline) return std::unexpected(pipeline.error());
   if (auto ok = s.ensure_passes(**pipeline); !ok) return std::unexpected(ok.error());

@@ -9,6 +9,7 @@ module;
 #include <cstdint>
 #include <expected>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -92,13 +93,18 @@ struct GraphReport {
 
 class Renderer {
  public:
+  // On a gpu::Device::create_declaring() device a renderer declares and compiles frames
+  // (describe) and renders none: features skip their bakes, nothing is uploaded.
   static Result<Renderer> create(gpu::Device& device);
   Renderer(Renderer&&) noexcept;
   Renderer& operator=(Renderer&&) noexcept;
   ~Renderer();
 
   Result<Frame> render(const scene::Scene& scene, const RenderOptions& options = {});
-  Result<GraphReport> describe(const scene::Scene& scene, const RenderOptions& options = {});
+  // The frame compiled, not executed. `inspect`, when given, sees the compiled graph (the
+  // test kit's expectations on order, barriers and memory) before the report is made.
+  Result<GraphReport> describe(const scene::Scene& scene, const RenderOptions& options = {},
+                               const std::function<void(const CompiledGraph&)>& inspect = {});
 
   // How many times each cache did real work (tests assert the second frame does none).
   struct CacheStats {
@@ -114,6 +120,14 @@ class Renderer {
   struct State;
   std::unique_ptr<State> state_;
 };
+
+// A scene's frame declared and compiled with no adapter and no Vulkan driver: a renderer on
+// gpu::Device::create_declaring(). Passes, culling, order, barriers and transient memory
+// (estimated, as for any compile without a device) are those a device would get; bakes do
+// not run, so the sizes of assets only a bake knows (an SSDF's cluster data) are
+// placeholders. `weft graph` and `weft graph check` use it.
+Result<GraphReport> describe(const scene::Scene& scene, const RenderOptions& options = {},
+                             const std::function<void(const CompiledGraph&)>& inspect = {});
 
 // True when scene object `index` is flat (every vertex on one plane) and nothing the camera
 // can see lies behind it as seen from the light (`towards_light`): the other objects' boxes

@@ -14,6 +14,7 @@ module weft.tradeoff;
 import weft.core;
 import weft.scene;
 import weft.feature;
+import weft.pipeline;
 
 namespace weft::tradeoff {
 
@@ -57,6 +58,33 @@ Result<const Study*> find_study(std::string_view feature) {
   for (const Study* s : studies())
     if (s->descriptor == *descriptor) return s;
   return fail(ErrorKind::Internal, "feature '{}' is registered but has no study", feature);
+}
+
+Result<Study> pass_study(const pipeline::Pipeline& pipeline, std::string_view pass) {
+  const pipeline::PipelinePass* p = pipeline.find(pass);
+  if (!p) {
+    std::string names;
+    for (const auto& q : pipeline.passes) names += (names.empty() ? "" : ", ") + q.name + " (" + q.type->name + ")";
+    return fail(ErrorKind::NotFound, "{} has no pass '{}' to study; its passes: {}", pipeline.source, pass, names);
+  }
+  const pipeline::PassTypeDescriptor& type = *p->type;
+  if (type.reference.empty())
+    return fail(ErrorKind::InvalidArgument, "pass '{}' ({}) trades no accuracy for speed (its type names no reference "
+                "setting), so there is nothing to study", pass, type.name);
+  Study s;
+  s.feature = weft::format("{} ({})", p->name, type.name);
+  s.pass = p->name;
+  s.passes = {p->name};
+  for (const auto& o : type.options) {
+    if (o.sweep.empty()) continue;
+    Knob k{.name = o.name, .kind = o.kind, .min = o.min, .max = o.max, .choices = o.choices, .sweep = o.sweep,
+           .meaning = o.meaning};
+    s.knobs.push_back(std::move(k));
+  }
+  s.reference = {.label = "reference", .group = "reference", .values = type.reference, .is_reference = true};
+  s.reference_why = type.reference_why;
+  s.cost = CostAxis::Frame;
+  return s;
 }
 
 Result<const Knob*> find_knob(const Study& study, std::string_view name) {

@@ -16,6 +16,7 @@ module weft.tradeoff;
 import weft.core;
 import weft.scene;
 import weft.feature;
+import weft.pipeline;
 
 namespace weft::tradeoff {
 
@@ -197,7 +198,8 @@ std::vector<Setting> plan_sweep(const Study& study, std::span<const KnobValues> 
   // A preset as the feature's knob values at the renderer's medium quality, so the rows differ
   // only in the feature (--quality also changes the renderer's shadow map resolution); a
   // feature without preset_values is rendered at the quality itself.
-  for (Quality q : {Quality::Low, Quality::Medium, Quality::High, Quality::Reference}) add(preset_setting(study, q));
+  if (study.pass.empty())  // a pass study has no presets: a quality preset changes every feature too
+    for (Quality q : {Quality::Low, Quality::Medium, Quality::High, Quality::Reference}) add(preset_setting(study, q));
   std::set<std::string> in_grid;
   for (const auto& [a, b] : study.grids) {
     auto ka = find_knob(study, a), kb = find_knob(study, b);
@@ -264,7 +266,25 @@ bool scene_uses(const scene::Scene& scene, std::string_view type) {
                      [&](const scene::Material& m) { return m.type == type; });
 }
 
+Result<pipeline::Pipeline> apply_pass_setting(const pipeline::Pipeline& pipeline, const Study& study,
+                                              const Setting& setting) {
+  const pipeline::PipelinePass* p = pipeline.find(study.pass);
+  if (!p) return fail(ErrorKind::NotFound, "{} has no pass '{}' for the {} study", pipeline.source, study.pass, study.feature);
+  json values = json::object();
+  if (setting.strip_knobs) {
+    for (const auto& knob : study.knobs)
+      for (const auto& o : p->type->options)
+        if (o.name == knob.name) values[o.name] = o.default_value;
+    for (const auto& [name, value] : study.reference.values.items())
+      for (const auto& o : p->type->options)
+        if (o.name == name) values[o.name] = o.default_value;
+  }
+  for (const auto& [name, value] : setting.values.items()) values[name] = value;
+  return pipeline::with_options(pipeline, study.pass, values);
+}
+
 Result<void> apply_setting(scene::Scene& scene, const Study& study, const Setting& setting) {
+  if (!study.pass.empty()) return {};  // a pass study's settings go into the pipeline (apply_pass_setting)
   if (!scene_uses(scene, study.material))
     return fail(ErrorKind::InvalidArgument, "the scene has no '{}' material, so there is nothing for the {} study to sweep",
                 study.material, study.feature);

@@ -24,6 +24,7 @@ import weft.core;
 import weft.image;
 import weft.scene;
 import weft.feature;
+import weft.pipeline;
 
 export namespace weft::tradeoff {
 
@@ -59,6 +60,9 @@ struct Study {
   nlohmann::json (*preset_values)(Quality) = nullptr;
   void (*clear_caches)() = nullptr;
   const FeatureDescriptor* descriptor = nullptr;  // where all of this comes from
+  // A study of a pipeline pass's options (pass_study) instead of a feature's materials: the
+  // pass it sets options on; the settings go into the pipeline, not the scene.
+  std::string pass;
 };
 
 // One study per registered feature (weft::feature_registry()), in registration order.
@@ -67,6 +71,17 @@ std::vector<const Study*> studies();
 // By the feature's name or alias; NotFound naming the registered features otherwise.
 Result<const Study*> find_study(std::string_view feature);
 Result<const Knob*> find_knob(const Study& study, std::string_view name);
+// The study of one pass of a pipeline (`weft tradeoff --pass NAME`): the options of its type
+// that have sweep values, as knobs; its type's reference; no quality presets (a preset would
+// change every feature too); the whole frame as its pixels. NotFound when the pipeline has no
+// such pass (naming its passes); InvalidArgument when its type has no reference (the pass
+// trades no accuracy for speed, as an effect such as bloom).
+Result<Study> pass_study(const pipeline::Pipeline& pipeline, std::string_view pass);
+// The pipeline with a setting of a pass study applied: the study's options back to their
+// defaults when the setting strips knobs, then the setting's values (checked as the pipeline
+// reader checks them).
+Result<pipeline::Pipeline> apply_pass_setting(const pipeline::Pipeline& pipeline, const Study& study,
+                                              const Setting& setting);
 
 // "layers=1,2,4" -> the knob and its values, each checked against the knob (type, range,
 // choices); InvalidArgument naming the knob and the value otherwise.

@@ -68,10 +68,18 @@ const pipeline::PassTypeDescriptor& shadow_map_pass_type() {
       .inputs = {},
       .outputs = {{.name = "depth", .formats = {gpu::Format::Depth32Float}, .size = pipeline::SlotSize::Any,
                    .meaning = "the key light's depth, resolution x resolution"}},
-      .options = {pipeline::integer_option("resolution", 0, 16384, 0,
-                                           "texels per side; 0: by quality (1024 low, 2048 medium, 4096 high, 8192 "
-                                           "reference), at most the adapter's limit")},
+      // The stability sweep stops at 8192 (256 MiB): 16384 texels per side are 1 GiB of depth.
+      .options = {pipeline::with_extremes(
+          pipeline::integer_option("resolution", 0, 16384, 0,
+                                   "texels per side; 0: by quality (1024 low, 2048 medium, 4096 high, 8192 "
+                                   "reference), at most the adapter's limit",
+                                   {256, 512, 1024, 2048, 4096}),
+          std::nullopt, 8192)},
       .create = &create,
+      // Shadow edges converge as texels shrink below a pixel's footprint; 8192 is the
+      // reference preset's size (and within every desktop adapter's limit).
+      .reference = {{"resolution", 8192}},
+      .reference_why = "8192 texels per side: the reference preset's shadow map",
   };
   return d;
 }

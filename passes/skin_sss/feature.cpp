@@ -35,14 +35,18 @@ Result<gpu::Texture> upload_rgba8(gpu::Device& device, std::string_view label, s
   return std::move(t);
 }
 
+gpu::TextureDescriptor lut_descriptor(const skin::LutParams& params) {
+  return {.label = "skin_lut_" + hex64(params.hash()), .size = {params.width, params.height, 1},
+          .format = gpu::Format::RGBA16Float,
+          .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst |
+                   gpu::TextureUsage::CopySrc};  // CopySrc: `weft render --output` reads it
+}
+
 Result<gpu::Texture> upload_lut(gpu::Device& device, const skin::SkinLut& lut) {
   std::vector<std::uint16_t> half(lut.texels.size() * 4);
   for (std::size_t i = 0; i < lut.texels.size(); ++i)
     for (int c = 0; c < 4; ++c) half[i * 4 + c] = glm::packHalf1x16(lut.texels[i][c]);
-  WEFT_TRY(auto t, device.create_texture({.label = "skin_lut_" + hex64(lut.hash), .size = {lut.width, lut.height, 1},
-                                    .format = gpu::Format::RGBA16Float,
-                                    .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst |
-                                                   gpu::TextureUsage::CopySrc}));  // CopySrc: `weft render --output` reads it
+  WEFT_TRY(auto t, device.create_texture(lut_descriptor(lut.params)));
   WEFT_TRY_VOID(device.queue().write_texture(t, std::as_bytes(std::span(half))));
   return std::move(t);
 }
@@ -116,6 +120,11 @@ class SkinFeature final : public FeaturePass {
     if (auto it = materials_.find(key); it != materials_.end()) return it->second;
     WEFT_TRY(auto parsed, skin::parse_skin_material(material, quality));
     const std::uint64_t lut_key = parsed.lut.hash();
+    if (!lut_textures_.contains(lut_key) && device_->declaring()) {
+      // A declared frame (no adapter): the LUT's texture at its size, and no bake.
+      WEFT_TRY(auto texture, device_->create_texture(lut_descriptor(parsed.lut)));
+      lut_textures_.emplace(lut_key, std::make_unique<gpu::Texture>(std::move(texture)));
+    }
     if (!lut_textures_.contains(lut_key)) {
       auto lut = skin::cached_lut(parsed.lut);
       if (!lut) return with_context(weft::format("skin material '{}'", material.name), lut.error());
@@ -150,6 +159,12 @@ class SkinFeature final : public FeaturePass {
     h.value(light).value(mm_per_unit).value(m.lut.convention.normalization).value(m.lut.convention.variance_scale);
     const std::uint64_t key = h.digest();
     if (auto it = references_.find(key); it != references_.end()) return it->second.get();
+    if (device_->declaring()) {  // a declared frame: the buffer at its size, no brute-force gather
+      WEFT_TRY(auto buffer, device_->create_buffer({.label = "skin_reference_" + mesh.name,
+                                                    .size = std::max<std::size_t>(mesh.positions.size(), 1) * sizeof(vec4),
+                                                    .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst}));
+      return references_.emplace(key, std::make_unique<gpu::Buffer>(std::move(buffer))).first->second.get();
+    }
     log::info(weft::format("skin reference: brute-force scattering on mesh '{}' ({} vertices)", mesh.name,
                            mesh.positions.size()));
     // The physical profile, as the references of docs/skin.md.
@@ -165,7 +180,8 @@ class SkinFeature final : public FeaturePass {
 
   // The texture at `path` (nullptr when the path is empty), loaded once.
   Result<const gpu::Texture*> texture_for(const std::filesystem::path& path, gpu::Format format) {
-    if (path.empty()) return nullptr;
+    // A declared frame binds the placeholders: the maps are no resources of the graph.
+    if (path.empty() || device_->declaring()) return nullptr;
     const std::string key = path.string() + (format == gpu::Format::RGBA8Srgb ? "#srgb" : "#linear");
     if (auto it = textures_.find(key); it != textures_.end()) return it->second.get();
     WEFT_TRY(auto img, image::load_ldr(path));

@@ -67,6 +67,20 @@ class SsdfFeature final : public FeaturePass {
       const ssdf::BakeOptions& options = group_options.at(knobs);
       const std::uint64_t key = ssdf::bake_key(frame.scene, members, options);
       auto it = assets_.find(key);
+      if (it == assets_.end() && device_->declaring()) {
+        // A declared frame (no adapter): the asset's buffers without the bake. The vertex
+        // table has its size; the cluster table and data, whose sizes only the bake knows,
+        // are placeholders.
+        ssdf::Asset placeholder;
+        placeholder.resolution = options.resolution;
+        placeholder.cpca.cols = std::size_t(options.resolution) * options.resolution;
+        for (std::uint32_t index : members)
+          placeholder.cpca.row_count += frame.scene.meshes.at(frame.scene.objects.at(index).mesh).positions.size();
+        placeholder.cpca.cluster_of.assign(placeholder.cpca.row_count, 0);
+        placeholder.cpca.slot_of.assign(placeholder.cpca.row_count, 0);
+        WEFT_TRY(auto uploaded, upload_ssdf(*device_, placeholder, "ssdf." + hex64(key)));
+        it = assets_.emplace(key, std::make_unique<SsdfGpuAsset>(std::move(uploaded))).first;
+      }
       if (it == assets_.end()) {
         const auto start = std::chrono::steady_clock::now();
         auto baked = ssdf::cached_bake(frame.scene, members, options);
@@ -120,6 +134,8 @@ class SsdfFeature final : public FeaturePass {
     const auto key = std::pair{fit_key, resolution};
     if (auto it = lobes_.find(key); it != lobes_.end()) return it->second.get();
     auto fit = fits_.find(fit_key);
+    if (fit == fits_.end() && device_->declaring())  // a declared frame: no fit, the buffer at its size
+      fit = fits_.emplace(fit_key, std::vector<ssdf::SphericalGaussian>(count)).first;
     if (fit == fits_.end()) {
       WEFT_TRY(auto lobes, ssdf::fit_environment(env, {.lobes = count}));
       fit = fits_.emplace(fit_key, std::move(lobes)).first;

@@ -113,7 +113,13 @@ TEST_CASE("weft tradeoff: bad input is named; a small fur sweep writes its CSV, 
     std::string args, expect;
   };
   for (const auto& c : {Case{"tradeoff --feature fur", "scene file is required"},
-                        Case{"tradeoff " + fur, "--feature is required"},
+                        Case{"tradeoff " + fur, "--feature F or --pass NAME"},
+                        Case{"tradeoff " + fur + " --feature fur --pass shadow_map", "one of them"},
+                        Case{"tradeoff " + fur + " --feature fur --pipeline x.json", "--pipeline is for --pass"},
+                        Case{"tradeoff " + fur + " --pass tonemap", "trades no accuracy"},
+                        Case{"tradeoff " + fur + " --pass nosuch", "no pass 'nosuch'"},
+                        Case{"tradeoff " + fur + " --pass shadow_map --values resolution=99999", "resolution"},
+                        Case{"tradeoff " + fur + " --pass shadow_map --pipeline " + (dir / "nope.json").string(), "nope.json"},
                         Case{"tradeoff " + fur + " --feature hair", "'hair'"},
                         Case{"tradeoff " + s + " --feature fur", "no \"shell_fur\" material"},  // "fur" is its alias
                         Case{"tradeoff " + fur + " --feature fur --values layers=0", "layers"},
@@ -138,6 +144,18 @@ TEST_CASE("weft tradeoff: bad input is named; a small fur sweep writes its CSV, 
   CHECK(contains(plot, "</svg>"));
   CHECK(std::filesystem::file_size(out / "tradeoff.md") > 100);
   CHECK(std::filesystem::file_size(out / "reference.png") > 50);
+  // A pass of the pipeline: the shadow map's resolution against its 8192-texel reference.
+  const auto shadow_out = dir / "shadow";
+  const auto sr = run_command(cli + " tradeoff " + fur + " --pass shadow_map --frames 1 --values resolution=64,1024 -o " +
+                              shadow_out.string());
+  REQUIRE_MESSAGE(sr.exit_code == 0, sr.output);
+  std::ifstream shadow_csv(shadow_out / "tradeoff.csv");
+  std::string shadow_text((std::istreambuf_iterator<char>(shadow_csv)), std::istreambuf_iterator<char>());
+  CHECK(contains(shadow_text, "resolution=64"));
+  CHECK(contains(shadow_text, "resolution=1024"));
+  CHECK(contains(shadow_text, "reference"));
+  CHECK(!contains(shadow_text, "preset low"));  // no quality presets in a pass study
+  CHECK(contains(sr.output, "all 768 pixels"));  // 32 x 24: a pass study's error is over the whole frame
   std::filesystem::remove_all(dir);
 }
 

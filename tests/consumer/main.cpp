@@ -2,8 +2,10 @@
 // graph without a device and checks it with the installed test kit (weft.graph_testing) --
 // the pass that reaches no output is culled, the other two run producer first, the barrier
 // between them, the memory, a golden DOT written then compared -- then checks a broken
-// pipeline file's exact message and a good one, with weft's pass types registered.
+// pipeline file's exact message and a good one, with weft's pass types registered, and a
+// scene's whole frame compiled with no device (expect_scene_frame).
 #include <cstdio>
+#include <expected>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -12,6 +14,8 @@ import weft.core;
 import weft.gpu;
 import weft.graph;
 import weft.pipeline;
+import weft.scene;
+import weft.renderer;
 import weft.graph_testing;
 import weft.builtin_features;
 
@@ -63,6 +67,26 @@ int main() {
         "broken pipeline");
   std::ofstream(dir / "good.json") << pipeline::default_pipeline_text();
   check(testing::expect_pipeline_valid(dir / "good.json"), "default pipeline");
+  // A scene's whole frame, declared and compiled with no device.
+  auto description = scene::parse_scene(R"({"version": 1, "output": {"width": 32, "height": 24},
+    "camera": {"position": [0, 0, 3], "target": [0, 0, 0]},
+    "lights": [{"type": "directional", "direction": [0, -1, -1], "intensity": 2}],
+    "meshes": {"ball": {"primitive": "sphere", "radius": 0.5}},
+    "materials": {"grey": {"base_color": [0.5, 0.5, 0.5]}},
+    "objects": [{"name": "ball", "mesh": "ball", "material": "grey"}]})", dir);
+  auto scene = description ? scene::load_scene(*description) : Result<scene::Scene>(std::unexpected(description.error()));
+  if (!scene) {
+    check(scene.error().message, "the scene");
+  } else {
+    check(testing::expect_scene_frame(*scene, {}, [](const CompiledGraph& frame) {
+            return testing::expect_order(frame, {"shadow_map", "forward", "background", "tonemap"});
+          }),
+          "the scene's frame without a device");
+    if (!testing::expect_scene_frame(*scene, {}, [](const CompiledGraph& frame) {
+          return testing::expect_order(frame, {"tonemap", "shadow_map"});
+        }))
+      check("a false expectation on a scene's frame held", "the kit");
+  }
   std::filesystem::remove_all(dir);
   if (failures) return 1;
   std::printf("weft consumer: graph '%s' checked with weft.graph_testing, %zu of %zu passes kept; pipelines checked\n",

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <string>
 #include <vector>
 #include <unistd.h>
@@ -300,5 +301,56 @@ TEST_CASE("every new pass option at the ends of its range renders finite values,
   REQUIRE(!e);
   CHECK(e.error().message.find("debug_view: option 'far' (5) must be larger than 'near' (5)") != std::string::npos);
   CHECK(e.error().message.find("pass 'debug'") != std::string::npos);
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("every option of every built-in pass type at its extremes, read from the options tables: finite, or refused naming the pass") {
+  auto s = load(lit_scene);
+  std::vector<pipeline::Pipeline> pipelines;
+  auto standard = pipeline::default_pipeline();
+  REQUIRE(standard);
+  pipelines.push_back(std::move(*standard));
+  // With the default one, these hold every built-in pass type.
+  for (const char* file : {"bloom_outline.json", "debug_depth.json"}) {
+    auto p = pipeline::load_pipeline(fs::path(source_dir()) / "examples/pipelines" / file);
+    REQUIRE_MESSAGE(p, (p ? "" : p.error().what()));
+    pipelines.push_back(std::move(*p));
+  }
+  std::set<std::string> covered;  // "type.option"
+  for (const auto& base : pipelines) {
+    // Every frame-sized resource a pass of this pipeline makes, read back (the shadow map, at
+    // up to 8192² texels, is seen through the scene colour it shades).
+    std::vector<std::string> slots;
+    for (const auto& q : base.passes)
+      for (const auto& out : q.type->outputs)
+        if (out.size == pipeline::SlotSize::Frame) slots.push_back(q.name + "." + out.name);
+    for (const auto& pass : base.passes)
+      for (const auto& option : pass.type->options)
+        for (const auto& value : pipeline::extreme_values(option)) {
+          CAPTURE(base.source);
+          CAPTURE(pass.name);
+          CAPTURE(option.name);
+          CAPTURE(value.dump());
+          auto changed = pipeline::with_options(base, pass.name, {{option.name, value}});
+          REQUIRE_MESSAGE(changed, (changed ? "" : changed.error().what()));  // an extreme is inside the table's range
+          auto f = shared_renderer().render(s, {.width = 48, .height = 32, .pipeline = &*changed, .outputs = slots});
+          if (f) {
+            for (const auto& r : f->outputs) {
+              CAPTURE(r.name);
+              CHECK(std::count_if(r.pixels.pixels.begin(), r.pixels.pixels.end(), [](float v) { return !std::isfinite(v); }) == 0);
+            }
+          } else {
+            // Refused (a debug view's near past its far): an error naming the pass, not a crash
+            // or a wrong image.
+            const std::string what = f.error().what();
+            CHECK_MESSAGE(what.find("'" + pass.name + "'") != std::string::npos, what);
+          }
+          covered.insert(pass.type->name + "." + option.name);
+        }
+  }
+  for (const auto* type : pipeline::pass_type_registry().all())
+    for (const auto& option : type->options)
+      CHECK_MESSAGE(covered.contains(type->name + "." + option.name),
+                    "no pipeline of this test holds pass type '" << type->name << "' to sweep option '" << option.name << "'");
   weft::test::expect_no_validation_messages();
 }

@@ -102,6 +102,15 @@ TEST_CASE("the showcase composes the four features in one graph: each pass once,
   for (const char* shared : {"\"shadow_map", "scene_depth", "scene_color", "environment"})
     CHECK_MESSAGE(report->dot.find(shared) != std::string::npos, shared);
 
+  // Declared with no adapter (renderer::describe on a declaring device, no bake run): the same
+  // frame as on this adapter -- passes, order, culling, resources and slots.
+  auto declared = renderer::describe(s, kSmall);
+  REQUIRE_MESSAGE(declared, (declared ? "" : declared.error().what()));
+  CHECK(declared->passes == report->passes);
+  CHECK(declared->culled_passes == report->culled_passes);
+  CHECK(declared->resources == report->resources);
+  CHECK(declared->slots == report->slots);
+
   // Switching the cloth to a standard material removes the neural BTF pass (and its model).
   scene::Scene without = s;
   for (auto& m : without.materials)

@@ -21,6 +21,7 @@ import weft.image;
 import weft.scene;
 import weft.feature;
 import weft.tradeoff;
+import weft.pipeline;
 import weft.pass.skin_sss;
 import weft.pass.shell_fur;
 import weft.pass.ssdf_lighting;
@@ -508,4 +509,50 @@ TEST_CASE("budget: each built-in feature offers its low, medium and high presets
     for (const auto& l : levels) CHECK(l.strip_knobs);
     CHECK(levels[0].values != levels[2].values);
   }
+}
+
+TEST_CASE("a pipeline pass's study: its options' sweeps from the options table, its type's reference, no presets") {
+  auto pipeline = pipeline::default_pipeline();
+  REQUIRE(pipeline);
+  auto shadow = to::pass_study(*pipeline, "shadow_map");
+  REQUIRE_MESSAGE(shadow, (shadow ? "" : shadow.error().what()));
+  CHECK(shadow->pass == "shadow_map");
+  CHECK(shadow->passes == std::vector<std::string>{"shadow_map"});
+  REQUIRE(shadow->knobs.size() == 1);
+  CHECK(shadow->knobs[0].name == "resolution");
+  CHECK(shadow->knobs[0].max == 16384);
+  CHECK(shadow->reference.values == json{{"resolution", 8192}});
+  // Every value a sweep tries is one the pipeline reader accepts.
+  for (const auto& v : shadow->knobs[0].sweep) CHECK(to::check_knob_value(shadow->knobs[0], v));
+
+  const auto plan = to::plan_sweep(*shadow);
+  REQUIRE(!plan.empty());
+  CHECK(plan.front().is_reference);
+  CHECK(plan.size() == 1 + shadow->knobs[0].sweep.size());  // the reference and the sweep: no presets
+  for (const auto& setting : plan) CHECK(setting.group != "preset");
+
+  // A setting goes into the pipeline, checked as the reader checks a file.
+  auto with = to::apply_pass_setting(*pipeline, *shadow, plan[1]);
+  REQUIRE_MESSAGE(with, (with ? "" : with.error().what()));
+  CHECK(with->find("shadow_map")->options.integer("resolution") == plan[1].values.at("resolution").get<std::int64_t>());
+  CHECK(pipeline->find("shadow_map")->options.integer("resolution") == 0);  // the base pipeline is untouched
+  auto reference = to::apply_pass_setting(*pipeline, *shadow, plan.front());
+  REQUIRE(reference);
+  CHECK(reference->find("shadow_map")->options.integer("resolution") == 8192);
+  const to::Setting too_big{.label = "too big", .values = {{"resolution", 20000}}};
+  auto refused = to::apply_pass_setting(*pipeline, *shadow, too_big);
+  REQUIRE(!refused);
+  CHECK(refused.error().what().find("$.passes.shadow_map.options.resolution") != std::string::npos);
+  // A scene is not touched by a pass study's setting.
+  scene::Scene untouched;
+  CHECK(to::apply_setting(untouched, *shadow, plan[1]));
+
+  // A pass that trades nothing, and a pass the pipeline lacks, are named.
+  auto tonemap = to::pass_study(*pipeline, "tonemap");
+  REQUIRE(!tonemap);
+  CHECK(tonemap.error().message.find("trades no accuracy") != std::string::npos);
+  auto missing = to::pass_study(*pipeline, "bloom");
+  REQUIRE(!missing);
+  CHECK(missing.error().kind == ErrorKind::NotFound);
+  CHECK(missing.error().message.find("shadow_map (shadow_map)") != std::string::npos);  // lists the passes
 }

@@ -389,6 +389,38 @@ TEST_CASE("a pipeline file reloads live (a bad edit keeps the frame), and any re
   CHECK(difference(shot("p_default.png"), shot("p_frame.png")).max <= 1);
 }
 
+TEST_CASE("a pass option set in the viewer (the Pipeline panel's `option`) renders as the same option in a pipeline file; a bad value is named and the frame kept") {
+  require_display();
+  const fs::path source = WEFT_SOURCE_DIR;
+  write(scratch() / "option_scene.json", ball_scene("[0.8, 0.1, 0.05]"));
+  auto shot = [&](const char* name) { return (scratch() / name).string(); };
+  write(scratch() / "option.txt", "ui off\nrefine\nscreenshot " + shot("o_default.png") +
+                                      "\noption tonemap exposure 2.5\nwait 2\nrefine\nscreenshot " + shot("o_bright.png") +
+                                      "\noption tonemap exposure 1e9\nwait 2\nrefine\nscreenshot " + shot("o_refused.png") +
+                                      "\nquit\n");
+  auto v = run(weft_cli() + " view " + (scratch() / "option_scene.json").string() + " --size 160x120 --script " +
+               (scratch() / "option.txt").string());
+  INFO(v.output);
+  REQUIRE(v.code == 0);
+  CHECK(v.output.find("3 screenshot(s)") != std::string::npos);
+  // The out-of-range value is refused at its JSON path, as the pipeline reader refuses it; the
+  // frame stays as it was.
+  CHECK(v.output.find("$.passes.tonemap.options.exposure") != std::string::npos);
+  CHECK(difference(shot("o_bright.png"), shot("o_refused.png")).max == 0);
+  // The same option in a pipeline file, through weft render: the same image.
+  write(scratch() / "bright.json", R"({"passes": {"shadow_map": {"type": "shadow_map"}, "scene": {"type": "scene_color"},
+    "background": {"type": "background"}, "tonemap": {"type": "tonemap", "options": {"exposure": 2.5}}},
+    "connections": ["shadow_map.depth -> scene.shadow_map", "scene.color -> background.color",
+                    "scene.depth -> background.depth", "background.color -> tonemap.color"],
+    "outputs": ["tonemap.color"]})");
+  auto r = run(weft_cli() + " render " + (scratch() / "option_scene.json").string() + " --size 160x120 --pipeline " +
+               (scratch() / "bright.json").string() + " -o " + shot("o_rendered.png"));
+  INFO(r.output);
+  REQUIRE(r.code == 0);
+  CHECK(difference(shot("o_bright.png"), shot("o_rendered.png")).max <= 1);
+  CHECK(difference(shot("o_default.png"), shot("o_bright.png")).mean > 10.0);  // the option did something
+}
+
 TEST_CASE("scene frames on the window's device (--scene-device shared) or on their own: weft render's image, no validation message, compare works") {
   require_display();
   const fs::path scene = scratch() / "devices.json", rendered = scratch() / "devices_rendered.png";

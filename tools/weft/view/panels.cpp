@@ -202,6 +202,62 @@ void graph_panel(Session& s) {
   }
 }
 
+// The pipeline's passes and their options, read from each pass type's options table (the
+// table the pipeline reader, the docs and `weft tradeoff --pass` read); an edit re-renders.
+void pipeline_panel(Session& s) {
+  if (!ImGui::CollapsingHeader("Pipeline")) return;
+  const auto held = s.current_pipeline();  // kept: an edit replaces the session's copy mid-loop
+  if (!held) {
+    ImGui::TextDisabled("the pipeline does not load (see Messages)");
+    return;
+  }
+  ImGui::TextWrapped("%s%s", held->source.c_str(), s.edited_pipeline ? " (options edited here)" : "");
+  const auto set = [&](const std::string& pass, const std::string& option, const nlohmann::json& value) {
+    if (auto ok = s.set_pass_option(pass, option, value); !ok) s.error = ok.error().what();
+  };
+  for (const auto& pass : held->passes) {
+    if (!ImGui::TreeNode((pass.name + " (" + pass.type->name + ")").c_str())) continue;
+    if (pass.type->options.empty()) ImGui::TextDisabled("no options");
+    for (const auto& o : pass.type->options) {
+      const nlohmann::json& v = pass.options.json().at(o.name);
+      const std::string id = o.name + "##" + pass.name;
+      switch (o.kind) {
+        case weft::KnobKind::Integer: {
+          int x = v.is_number() ? v.get<int>() : int(o.min);
+          if (ImGui::SliderInt(id.c_str(), &x, int(o.min), int(o.max), "%d", ImGuiSliderFlags_AlwaysClamp))
+            set(pass.name, o.name, x);
+          break;
+        }
+        case weft::KnobKind::Number: {
+          float x = v.is_number() ? v.get<float>() : float(o.min);
+          // Wide ranges (an exposure from 1e-6 to 1e6) need a logarithmic slider to be usable.
+          const ImGuiSliderFlags flags = ImGuiSliderFlags_AlwaysClamp |
+                                         (o.min >= 0.0 && o.max - o.min > 1000.0 ? ImGuiSliderFlags_Logarithmic : 0);
+          if (ImGui::SliderFloat(id.c_str(), &x, float(o.min), float(o.max), "%.4g", flags)) set(pass.name, o.name, x);
+          break;
+        }
+        case weft::KnobKind::Boolean: {
+          bool x = v.is_boolean() && v.get<bool>();
+          if (ImGui::Checkbox(id.c_str(), &x)) set(pass.name, o.name, x);
+          break;
+        }
+        case weft::KnobKind::Choice: {
+          const std::string x = v.is_string() ? v.get<std::string>() : std::string();
+          if (ImGui::BeginCombo(id.c_str(), x.c_str())) {
+            for (const auto& choice : o.choices)
+              if (ImGui::Selectable(choice.c_str(), choice == x)) set(pass.name, o.name, choice);
+            ImGui::EndCombo();
+          }
+          break;
+        }
+      }
+      if (ImGui::IsItemHovered() && !o.meaning.empty()) ImGui::SetTooltip("%s", o.meaning.c_str());
+    }
+    ImGui::TreePop();
+  }
+  if (s.edited_pipeline && ImGui::SmallButton("the file's options again")) s.drop_pipeline_edits();
+}
+
 void messages_panel(Session& s) {
   const std::size_t validation = s.instance->validation_enabled() ? s.instance->validation_message_count() : 0;
   const bool open = !s.error.empty() || !s.warnings.empty() || validation > 0;
@@ -226,6 +282,7 @@ void Session::draw_ui() {
   scene_panel(*this);
   timing_panel(*this);
   budget_panel(*this);
+  pipeline_panel(*this);
   graph_panel(*this);
   messages_panel(*this);
   ImGui::End();

@@ -109,6 +109,7 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter, gpu::Dev
       const auto t0 = Clock::now();
       renderer::RenderOptions options{.width = job.width, .height = job.height, .quality = job.quality};
       options.pipeline_file = job.pipeline_file;
+      options.pipeline = job.pipeline.get();  // the job holds it while the frame renders
       if (!job.show.empty() && !job.reference) options.outputs = {job.show};
       if (job.budget_ms > 0.0) {
         governor::BudgetOptions budget{.budget_ms = job.budget_ms};

@@ -33,6 +33,7 @@ const std::map<std::string, Arity, std::less<>>& commands() {
       {"copy", {2, 2, "copy FROM TO"}},         {"compare", {1, 1, "compare MATERIAL"}},
       {"overlay", {1, 1, "overlay on|off"}},         {"quit", {0, 0, "quit"}},
       {"budget", {1, 1, "budget MILLISECONDS"}}, {"show", {1, 1, "show RESOURCE|frame"}},
+      {"option", {3, 3, "option PASS OPTION VALUE"}},
   };
   return table;
 }
@@ -104,6 +105,8 @@ Result<Script> parse_script(const std::filesystem::path& path, const std::string
     if (n == "wait" && !whole_within(command.args[0], 0, 1e6)) return bad("wait needs a whole number of frames within 0..1000000");
     if ((n == "ui" || n == "overlay") && command.args[0] != "on" && command.args[0] != "off")
       return bad(n + " takes on or off");
+    if (n == "option" && !nlohmann::json::accept(command.args[2]))
+      return bad("option value '" + command.args[2] + "' is not JSON (numbers, true/false, or \"quoted\" text)");
     if (n == "knob" && !nlohmann::json::accept(command.args[2]))
       return bad("knob value '" + command.args[2] + "' is not JSON (numbers, true/false, or \"quoted\" text)");
     script.commands.push_back(std::move(command));

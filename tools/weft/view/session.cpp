@@ -83,6 +83,7 @@ Result<void> Session::load(bool first) {
   const bool camera_changed = first || loaded->camera.position != file_camera.position ||
                               loaded->camera.target != file_camera.target;
   file_camera = loaded->camera;
+  if (loaded->pipeline != scene.pipeline) drop_pipeline_edits();  // another pipeline: the edits were of the old one
   scene = std::move(*loaded);
   if (camera_changed) camera.emplace(CameraPose{scene.camera.position, scene.camera.target});
   scene_changed();
@@ -100,7 +101,9 @@ void Session::poll_reload() {
       const bool first = !pipeline_time;
       pipeline_time = pipeline_now;
       if (!first) {
-        log::info(weft::format("pipeline {} changed", pipeline_file.string()));
+        log::info(weft::format("pipeline {} changed{}", pipeline_file.string(),
+                               edited_pipeline ? "; the options edited in the viewer are replaced by the file's" : ""));
+        drop_pipeline_edits();
         if (error.rfind("frame failed", 0) == 0) error.clear();
         scene_changed();
       }
@@ -161,6 +164,34 @@ void Session::set_knob(std::size_t material, const std::string& field, const nlo
     rest.erase(0, dot + 1);
   }
   (*at)[rest] = value;
+  scene_changed();
+}
+
+std::shared_ptr<const pipeline::Pipeline> Session::current_pipeline() {
+  if (edited_pipeline) return edited_pipeline;
+  if (!loaded_pipeline) {
+    const std::filesystem::path file = options.pipeline.value_or(scene.pipeline);
+    auto loaded = file.empty() ? pipeline::default_pipeline() : pipeline::load_pipeline(file);
+    if (!loaded) return nullptr;  // the frame's error says why
+    loaded_pipeline = std::make_shared<const pipeline::Pipeline>(std::move(*loaded));
+  }
+  return loaded_pipeline;
+}
+
+Result<void> Session::set_pass_option(const std::string& pass, const std::string& option, const nlohmann::json& value) {
+  const auto base = current_pipeline();
+  if (!base) return fail(ErrorKind::InvalidArgument, "the pipeline does not load, so its options cannot be set");
+  auto changed = pipeline::with_options(*base, pass, nlohmann::json{{option, value}});
+  if (!changed) return std::unexpected(changed.error());
+  edited_pipeline = std::make_shared<const pipeline::Pipeline>(std::move(*changed));
+  scene_changed();
+  return {};
+}
+
+void Session::drop_pipeline_edits() {
+  loaded_pipeline.reset();
+  if (!edited_pipeline) return;
+  edited_pipeline.reset();
   scene_changed();
 }
 
@@ -269,6 +300,11 @@ void Session::step_script() {
         continue;
       }
       set_knob(std::size_t(it - scene.materials.begin()), a[1], nlohmann::json::parse(a[2]));
+    } else if (c.name == "option") {
+      if (auto ok = set_pass_option(a[0], a[1], nlohmann::json::parse(a[2])); !ok) {
+        error = weft::format("{}:{}: {}", script->path.string(), c.line, ok.error().what());
+        log::warn(error);
+      }
     } else if (c.name == "quality") {
       if (auto q = renderer::quality_from_string(a[0]); q) {
         quality = *q;
@@ -362,7 +398,8 @@ void Session::post_job(const Wanted& want) {
   view.target = want.pose.target;
   scene_renderer->submit({.scene = snapshot, .camera = view, .width = w, .height = h, .quality = want.quality,
                           .moving = want.moving, .describe = !want.moving && !graph,
-                          .pipeline_file = options.pipeline.value_or(std::filesystem::path{}), .show = want.show,
+                          .pipeline_file = options.pipeline.value_or(std::filesystem::path{}), .pipeline = edited_pipeline,
+                          .show = want.show,
                           .id = ++posted_id});
   if (posted && posted->moving && !want.moving && seconds_since(last_motion) < 3600) refine_requested = last_motion;
   posted = want;
@@ -389,6 +426,7 @@ void Session::request_budget() {
   if (!snapshot) snapshot = std::make_shared<const scene::Scene>(scene);
   scene_renderer->submit({.scene = snapshot, .camera = view, .width = std::uint32_t(posted->width),
                           .height = std::uint32_t(posted->height), .quality = posted->quality, .budget_ms = budget_ms,
+                          .pipeline_file = options.pipeline.value_or(std::filesystem::path{}), .pipeline = edited_pipeline,
                           .id = ++posted_id});
   budget_running = true;
   budget_summary = weft::format("measuring the features for a {:.0f} ms budget...", budget_ms);
@@ -420,7 +458,8 @@ Result<void> Session::update_comparison() {
   view.target = posted->pose.target;
   scene_renderer->submit({.scene = with_values(scene, comparison->type, comparison->reference), .camera = view,
                           .width = refined_image->width, .height = refined_image->height, .quality = posted->quality,
-                          .reference = true, .id = ++reference_jobs});
+                          .reference = true, .pipeline_file = options.pipeline.value_or(std::filesystem::path{}),
+                          .pipeline = edited_pipeline, .id = ++reference_jobs});
   comparison->posted = true;
   comparison->job = reference_jobs;
   comparison->against = posted_id;

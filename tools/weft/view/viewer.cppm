@@ -204,6 +204,9 @@ struct RenderJob {
   bool reference = false;  // the comparison's reference image, not a frame to show
   double budget_ms = 0.0;  // > 0: fit the features to this frame time (weft.governor), many frames
   std::filesystem::path pipeline_file;  // ViewOptions::pipeline (empty: the scene's)
+  // The pipeline with options edited in the Pipeline panel or by the script's `option`;
+  // null: pipeline_file's (or the scene's, or the default) as it is.
+  std::shared_ptr<const pipeline::Pipeline> pipeline;
   std::string show;        // a resource to show instead of the frame's image (its picture)
   std::uint64_t id = 0;
 };
@@ -270,6 +273,10 @@ struct Session {
   scene::Scene scene;
   std::optional<std::filesystem::file_time_type> scene_time;
   std::optional<std::filesystem::file_time_type> pipeline_time;  // of the pipeline file in use, if any
+  // The pipeline the Pipeline panel lists and edits: the loaded one (file, scene's or default),
+  // and a copy with the options edited here (null: none edited). Saving the pipeline file, or
+  // a scene naming another one, drops the edits: the file is the truth.
+  std::shared_ptr<const pipeline::Pipeline> loaded_pipeline, edited_pipeline;
   std::string show;  // the resource shown instead of the frame's image (Graph panel, script `show`)
   std::optional<ShaderWatch> shader_watch;
   Clock::time_point last_shader_poll{};
@@ -354,6 +361,12 @@ struct Session {
   Result<void> save_screenshot(const gpu::Texture& texture, const std::filesystem::path& path);
   void draw_ui();  // panels.cpp
   void set_knob(std::size_t material, const std::string& field, const nlohmann::json& value);
+  // The pipeline frames render with (edited, else loaded; loads it when needed); null when
+  // it does not load (the frame then shows why).
+  std::shared_ptr<const pipeline::Pipeline> current_pipeline();
+  // One option of one pass, checked against its type's options table (pipeline::with_options).
+  Result<void> set_pass_option(const std::string& pass, const std::string& option, const nlohmann::json& value);
+  void drop_pipeline_edits();
   ~Session();
 };
 
