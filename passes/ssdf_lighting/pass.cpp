@@ -133,7 +133,14 @@ Result<SSDFLightingPass> SSDFLightingPass::create(gpu::Device& device) {
         {.label = "ssdf_lighting", .bind_group_layouts = {&bind_layout}, .push_constant_size = sizeof(SsdfPush)}));
   WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipeline(device, "ssdf_lighting", layout, vs, fs, frame::scene_color_format, frame::scene_depth_format));
   WEFT_TRY(auto shadow, frame::create_shadow_compare_sampler(device, "ssdf.shadow"));
-  WEFT_TRY(auto table, storage(device, "ssdf.irradiance_table", std::as_bytes(std::span(ssdf::irradiance_table().values))));
+  // The table is a second of quadrature the first time: a declaring device (a frame declared,
+  // never drawn) gets the buffer at its size without it.
+  constexpr std::uint64_t table_bytes = std::uint64_t(ssdf::IrradianceTable::rows) * ssdf::IrradianceTable::columns * sizeof(float);
+  WEFT_TRY(auto table, device.declaring()
+                           ? device.create_buffer({.label = "ssdf.irradiance_table", .size = table_bytes,
+                                                   .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst})
+                           : storage(device, "ssdf.irradiance_table",
+                                     std::as_bytes(std::span(ssdf::irradiance_table().values))));
   SSDFLightingPass pass;
   pass.state_ = std::make_shared<State>(State{std::move(bind_layout), std::move(layout), std::move(pipeline),
                                               std::move(shadow), std::move(table)});
