@@ -1,5 +1,6 @@
 module;
 #include <cstdint>
+#include <cstdio>
 #include <expected>
 #include <span>
 #include <string>
@@ -26,6 +27,11 @@ Result<Quality> quality_from_string(std::string_view name) {
   for (Quality q : {Quality::Low, Quality::Medium, Quality::High, Quality::Reference})
     if (to_string(q) == name) return q;
   return fail(ErrorKind::InvalidArgument, "unknown quality '{}' (low, medium, high, reference)", name);
+}
+
+int bake_failed(std::string_view bake, const Error& error) {
+  std::fprintf(stderr, "weft bake %.*s: %s\n", int(bake.size()), bake.data(), error.what().c_str());
+  return 1;
 }
 
 std::uint64_t mesh_content_hash(const scene::Mesh& mesh) {

@@ -162,6 +162,8 @@ struct BakeCommand {
   std::string summary;  // one line for `weft bake --help`
   std::function<int()> (*add)(CLI::App& command) = nullptr;
 };
+// What a bake's command returns when it fails: "weft bake <name>: <error>" on stderr, exit 1.
+int bake_failed(std::string_view bake, const Error& error);
 
 // Everything weft knows about a feature: one per feature module, registered by the application.
 struct FeatureDescriptor {

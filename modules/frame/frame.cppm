@@ -6,6 +6,7 @@
 module;
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <expected>
 #include <functional>
 #include <optional>
@@ -226,6 +227,23 @@ Result<FullscreenPipeline> create_fullscreen_pipeline(gpu::Device& device, std::
 void draw_fullscreen(PassContext& context, const FullscreenPipeline& pipeline, std::string_view label,
                      const gpu::TextureView& target, std::span<const gpu::TextureView* const> textures,
                      const gpu::Sampler& sampler, const gpu::Buffer* uniforms, std::span<const std::byte> push);
+
+// A pipeline pass type's one full-screen draw, declared: reads `inputs` (sampled, bound at
+// 0..n-1 in order, then the frame uniforms from the blackboard), writes `target` -- or a new
+// transient "<name>.color" of `format` at the frame's size when it is invalid -- and draws
+// `pipeline` there with `push`. Returns the target's new version. The debug views and the
+// outline are this; a pass with a chain of draws (bloom) declares its own.
+struct FullscreenPass {
+  std::string name;                   // the graph pass
+  std::vector<TextureHandle> inputs;  // at most 4
+  TextureHandle target;
+  gpu::Format format = gpu::Format::RGBA8Unorm;
+  std::vector<std::byte> push;        // push constants
+};
+// `pipeline` and `sampler` must live until the frame has executed: `owner`, what holds them,
+// is kept by the pass's callback until then.
+Result<TextureHandle> add_fullscreen_pass(RenderGraph& graph, FullscreenPass pass, const FullscreenPipeline& pipeline,
+                                          const gpu::Sampler& sampler, std::shared_ptr<const void> owner);
 
 // Orthographic light matrix enclosing the box [lo, hi] seen along `towards_light` (the key
 // light's shadow map; Vulkan depth 0..1).

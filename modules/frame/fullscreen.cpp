@@ -1,7 +1,9 @@
 // Full-screen passes: one pipeline shape and one draw call shared by every post-process.
 module;
+#include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <expected>
 #include <span>
 #include <string>
@@ -52,6 +54,37 @@ void draw_fullscreen(PassContext& context, const FullscreenPipeline& pipeline, s
   if (!push.empty()) pass.set_push_constants(push);
   pass.draw(3);
   pass.end();
+}
+
+Result<TextureHandle> add_fullscreen_pass(RenderGraph& graph, FullscreenPass p, const FullscreenPipeline& pipeline,
+                                          const gpu::Sampler& sampler, std::shared_ptr<const void> owner) {
+  constexpr std::size_t max_inputs = 4;
+  if (p.inputs.size() > max_inputs)
+    return fail(ErrorKind::InvalidArgument, "full-screen pass '{}': {} inputs, at most {}", p.name, p.inputs.size(), max_inputs);
+  WEFT_TRY(const SceneTargets shared,
+           scene_targets(graph.blackboard(), {.environment = false, .shadow_map = false, .color = false, .depth = false}));
+  struct Data {
+    BufferHandle uniforms;
+    std::array<TextureHandle, max_inputs> inputs{};
+    TextureHandle target;
+  };
+  const std::size_t n = p.inputs.size();
+  auto& data = graph.add_pass<Data>(
+      p.name,
+      [&](PassBuilder& b, Data& d) {
+        d.uniforms = b.read(shared.uniforms, BufferUse::Uniform);
+        for (std::size_t i = 0; i < n; ++i) d.inputs[i] = b.read(p.inputs[i], TextureUse::Sampled);
+        d.target = b.write(p.target ? p.target : b.create_texture(p.name + ".color", {.format = p.format}),
+                           TextureUse::ColorAttachment);
+      },
+      [pipeline = &pipeline, sampler = &sampler, owner = std::move(owner), push = std::move(p.push), label = p.name,
+       n](const PassResources& res, const Data& d, PassContext& ctx) {
+        std::array<const gpu::TextureView*, max_inputs> in{};
+        for (std::size_t i = 0; i < n; ++i) in[i] = &res.view(d.inputs[i]);
+        draw_fullscreen(ctx, *pipeline, label, res.view(d.target), std::span(in.data(), n), *sampler,
+                        &res.buffer(d.uniforms), push);
+      });
+  return data.target;
 }
 
 }  // namespace weft::frame

@@ -39,32 +39,16 @@ class DebugViewFramePass final : public pipeline::FramePass {
   }
   Result<void> add(RenderGraph& graph, const pipeline::PassFrame&, pipeline::PassSlots& slots) override {
     if (!gpu_) return fail(ErrorKind::Internal, "pass '{}': add() before prepare()", slots.pass_name());
-    WEFT_TRY(const frame::SceneTargets shared,
-             frame::scene_targets(graph.blackboard(),
-                                  {.environment = false, .shadow_map = false, .color = false, .depth = false}));
-    struct Data {
-      BufferHandle uniforms;
-      TextureHandle depth, target;
-    };
-    const TextureHandle depth = slots.input("depth");
-    const TextureHandle target = slots.target("color");
-    const std::string name(slots.pass_name());
-    auto gpu = gpu_;
-    const Push push = push_;
-    auto& data = graph.add_pass<Data>(
-        name,
-        [&](PassBuilder& b, Data& d) {
-          d.uniforms = b.read(shared.uniforms, BufferUse::Uniform);
-          d.depth = b.read(depth, TextureUse::Sampled);
-          d.target = b.write(target ? target : b.create_texture(name + ".color", {.format = gpu::Format::RGBA8Unorm}),
-                             TextureUse::ColorAttachment);
-        },
-        [gpu, push](const PassResources& res, const Data& d, PassContext& ctx) {
-          const gpu::TextureView* in[] = {&res.view(d.depth)};
-          frame::draw_fullscreen(ctx, gpu->pipeline, "debug_view", res.view(d.target), in, gpu->sampler,
-                                 &res.buffer(d.uniforms), std::as_bytes(std::span(&push, 1)));
-        });
-    slots.set_output("color", data.target);
+    const auto push = std::as_bytes(std::span(&push_, 1));
+    WEFT_TRY(const TextureHandle out,
+             frame::add_fullscreen_pass(graph,
+                                        {.name = std::string(slots.pass_name()),
+                                         .inputs = {slots.input("depth")},
+                                         .target = slots.target("color"),
+                                         .format = gpu::Format::RGBA8Unorm,
+                                         .push = {push.begin(), push.end()}},
+                                        gpu_->pipeline, gpu_->sampler, gpu_));
+    slots.set_output("color", out);
     return {};
   }
 

@@ -45,36 +45,19 @@ class OutlineFramePass final : public pipeline::FramePass {
   }
   Result<void> add(RenderGraph& graph, const pipeline::PassFrame&, pipeline::PassSlots& slots) override {
     if (!gpu_) return fail(ErrorKind::Internal, "pass '{}': add() before prepare()", slots.pass_name());
-    WEFT_TRY(const frame::SceneTargets shared,
-             frame::scene_targets(graph.blackboard(),
-                                  {.environment = false, .shadow_map = false, .color = false, .depth = false}));
     const TextureHandle color = slots.input("color"), depth = slots.input("depth");
     const auto desc = graph.texture_desc(color);
     if (!desc || !gpu_->pipelines.contains(desc->format))
       return fail(ErrorKind::Unsupported, "pass '{}': input 'color' must be rgba8unorm or rgba16float", slots.pass_name());
-    const gpu::Format format = desc->format;
-    struct Data {
-      BufferHandle uniforms;
-      TextureHandle color, depth, target;
-    };
-    const TextureHandle target = slots.target("color");
-    const std::string name(slots.pass_name());
-    auto gpu = gpu_;
-    const Push push = push_;
-    auto& data = graph.add_pass<Data>(
-        name,
-        [&](PassBuilder& b, Data& d) {
-          d.uniforms = b.read(shared.uniforms, BufferUse::Uniform);
-          d.color = b.read(color, TextureUse::Sampled);
-          d.depth = b.read(depth, TextureUse::Sampled);
-          d.target = b.write(target ? target : b.create_texture(name + ".color", {.format = format}), TextureUse::ColorAttachment);
-        },
-        [gpu, push, format](const PassResources& res, const Data& d, PassContext& ctx) {
-          const gpu::TextureView* in[] = {&res.view(d.color), &res.view(d.depth)};
-          frame::draw_fullscreen(ctx, gpu->pipelines.at(format), "outline", res.view(d.target), in, gpu->sampler,
-                                 &res.buffer(d.uniforms), std::as_bytes(std::span(&push, 1)));
-        });
-    slots.set_output("color", data.target);
+    const auto push = std::as_bytes(std::span(&push_, 1));
+    WEFT_TRY(const TextureHandle out, frame::add_fullscreen_pass(graph,
+                                                                 {.name = std::string(slots.pass_name()),
+                                                                  .inputs = {color, depth},
+                                                                  .target = slots.target("color"),
+                                                                  .format = desc->format,
+                                                                  .push = {push.begin(), push.end()}},
+                                                                 gpu_->pipelines.at(desc->format), gpu_->sampler, gpu_));
+    slots.set_output("color", out);
     return {};
   }
 

@@ -21,12 +21,6 @@ import weft.scene;
 import weft.ssdf;
 
 namespace weft::passes::detail {
-namespace {
-int bake_failed(const char* what, const Error& e) {
-  std::fprintf(stderr, "weft bake %s: %s\n", what, e.what().c_str());
-  return 1;
-}
-}  // namespace
 
 std::function<int()> add_ssdf_bake(CLI::App& command) {
   struct Args {

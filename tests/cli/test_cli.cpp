@@ -173,6 +173,8 @@ TEST_CASE("weft bake btf: bad input is named; a 4 x 4 synthetic fabric trains in
                         Case{"bake btf --synthetic 4x4 --finetune 2" + out, "--finetune 2"},
                         Case{"bake btf --synthetic 4x4 --resume" + out, "--checkpoint"},
                         Case{"bake btf --synthetic 4x4 --weave satin" + out, "satin"},
+                        Case{"bake btf --synthetic 4x4 --recipe fancy" + out, "--recipe 'fancy' is not best or paper"},
+                        Case{"bake btf --synthetic 4x4 --batch 0" + out, "--batch 0"},
                         Case{"bake btf " + (dir / "nope.btfraw").string() + out, "nope.btfraw"},
                         Case{"bake btf " + (dir / "corrupt.btfraw").string() + out, "corrupt.btfraw"}}) {
     const auto r = run_command(cli + " " + c.args);
@@ -183,7 +185,14 @@ TEST_CASE("weft bake btf: bad input is named; a 4 x 4 synthetic fabric trains in
   const auto r = run_command(cli + " bake btf --synthetic 4x4 --clusters 4 --epochs 1 --directions 64" + out);
   REQUIRE_MESSAGE(r.exit_code == 0, r.output);
   CHECK(contains(r.output, "RMSE"));
+  // The best recipe by default (a 16-texel fabric takes all 16 a step), the given option winning.
+  CHECK_MESSAGE(contains(r.output, "recipe: best (adam, learning rate 0.003, cosine, batch 16, 64 directions per texel, holdout 16)"),
+                r.output);
   CHECK(std::filesystem::file_size(dir / "x.wbtf") > 1000);
+  const auto paper = run_command(cli + " bake btf --synthetic 4x4 --epochs 1 --recipe paper --batch 4" + out);
+  REQUIRE_MESSAGE(paper.exit_code == 0, paper.output);
+  CHECK_MESSAGE(contains(paper.output, "recipe: paper (sgd, learning rate 0, constant, batch 4, all directions per texel, holdout 0)"),
+                paper.output);
   std::filesystem::remove_all(dir);
 }
 

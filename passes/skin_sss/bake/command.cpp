@@ -18,12 +18,6 @@ module weft.pass.skin_sss;
 import weft.core;
 
 namespace weft::passes::detail {
-namespace {
-int bake_failed(const char* what, const Error& e) {
-  std::fprintf(stderr, "weft bake %s: %s\n", what, e.what().c_str());
-  return 1;
-}
-}  // namespace
 
 // The pre-integrated skin LUT (docs/skin.md): RGB diffuse D(N·L, 1/r), A Beckmann.
 std::function<int()> add_skin_lut_bake(CLI::App& command) {
