@@ -29,6 +29,20 @@ Result<RenderedSetting> render_setting(gpu::Device& device, const scene::Scene& 
                                        const tradeoff::Setting& setting, const renderer::RenderOptions& defaults,
                                        unsigned frames, bool cpu_adapter);
 
+// A farm task's setting (weft.farm): the same as render_setting, and `baseline` rendered in a
+// second fresh renderer in the same process, one steady frame of each in turn, so the cost of
+// the setting is also a ratio to the baseline's measured on the same node under the same
+// load (frames taken on different nodes are not comparable; ratios are). The image is the
+// setting's last frame, as render_setting's.
+struct AlternatedSetting {
+  RenderedSetting setting;
+  double baseline_frame_ms = 0.0;  // median of the baseline's steady frames (the same clock as row.frame_ms)
+  double cost_ratio = 0.0;         // median over the frame pairs of setting / baseline
+};
+Result<AlternatedSetting> render_alternating(gpu::Device& device, const scene::Scene& base, const tradeoff::Study& study,
+                                             const tradeoff::Setting& setting, const tradeoff::Setting& baseline,
+                                             const renderer::RenderOptions& defaults, unsigned frames, bool cpu_adapter);
+
 // The feature's objects drawn flat black (white: emissive white) in place of its material.
 Result<image::Image8> coverage_render(gpu::Device& device, const scene::Scene& base, const tradeoff::Study& study,
                                       const renderer::RenderOptions& options, bool white);

@@ -1,10 +1,18 @@
-// `weft tradeoff SCENE --feature F [--out DIR] [--frames N] [--size WxH] [--values KNOB=V1,V2]`:
+// `weft tradeoff SCENE --feature F [--out DIR] [--frames N] [--size WxH] [--values KNOB=V1,V2] [--cross KNOB=V1,V2]`:
 // renders every setting weft.tradeoff plans for the feature (its presets, its knobs one at a
-// time, its grids, its reference), each in a fresh renderer so the first frame bakes cold,
-// then N more frames for the steady frame time; measures error against the reference over
-// the feature's pixels and writes DIR/tradeoff.csv, DIR/tradeoff.svg and DIR/tradeoff.md.
+// time, its grids, its crossed knobs, its reference), each in a fresh renderer so the first
+// frame bakes cold, then N more frames for the steady frame time; measures error against the
+// reference over the feature's pixels and writes DIR/tradeoff.csv, DIR/tradeoff.svg and
+// DIR/tradeoff.md.
+//
+// The same study as independent tasks (weft.farm, docs/farm.md): `--tasks FILE` writes the task
+// list (one task per setting and per coverage frame, each this command with `--task ID`, its
+// output CACHE/tradeoff/ID.{png,json} named by the hash of its inputs); `--farm local -j N`
+// runs it as processes here and `--farm slurm` as a Slurm job array; `--from-cache CACHE` is
+// the reduce step, which writes exactly the serial command's files from the tasks' outputs.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <ctime>
 #include <cstdio>
 #include <cstdlib>
@@ -12,8 +20,13 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
+#include <set>
+#include <span>
 #include <string>
 #include <vector>
+#include <nlohmann/json.hpp>
+#include <unistd.h>
 #include "commands.h"
 import weft.core;
 import weft.gpu;
@@ -22,18 +35,26 @@ import weft.scene;
 import weft.renderer;
 import weft.tradeoff;
 import weft.study;
+import weft.farm;
 
 namespace weft::cli {
+// farm.cpp: the runners shared by `weft tradeoff --farm` and `weft farm run`.
+int run_farm(const farm::TaskList& list, const FarmOptions& options, const std::string& command_name);
+Result<farm::TaskList> tradeoff_tasks_for(const farm::StudySpec& spec, const std::filesystem::path& cache);
 
 namespace {
 namespace to = weft::tradeoff;
+using json = nlohmann::json;
 
 struct Args {
   std::string scene_path, feature, out, size;
   unsigned frames = 5;
   float exposure = 1.0f;
-  std::vector<std::string> values;
+  std::vector<std::string> values, cross;
   bool list = false;
+  // the farm
+  std::string tasks_file, task, from_cache, cache;
+  FarmOptions farm;
 };
 
 int failed(const Error& e) {
@@ -62,80 +83,143 @@ void print_list() {
   }
 }
 
-int run(const Args& a) {
-  if (a.list) {
-    print_list();
-    return 0;
-  }
-  if (a.scene_path.empty()) return failed({ErrorKind::InvalidArgument, "a scene file is required"});
-  if (a.feature.empty()) return failed({ErrorKind::InvalidArgument, "--feature is required (see --list)"});
+// What every mode (serial, task, reduce, planning) reads from the arguments, checked.
+struct Study {
+  const to::Study* study = nullptr;
+  renderer::RenderOptions options;
+  scene::Scene scene;
+  std::vector<to::Setting> plan;
+  std::filesystem::path out;
+  std::uint64_t inputs = 0;  // hash of the scene file's bytes and the options every task shares
+};
+
+Result<Study> prepare(const Args& a) {
+  if (a.scene_path.empty()) return fail(ErrorKind::InvalidArgument, "a scene file is required");
+  if (a.feature.empty()) return fail(ErrorKind::InvalidArgument, "--feature is required (see --list)");
+  Study s;
   auto study = to::find_study(a.feature);
-  if (!study) return failed(study.error());
-  std::vector<to::KnobValues> overrides;
+  if (!study) return std::unexpected(study.error());
+  s.study = *study;
+  std::vector<to::KnobValues> overrides, crossed;
   for (const auto& text : a.values) {
     auto v = to::parse_knob_values(**study, text);
-    if (!v) return failed(with_context("--values", v.error()).error());
+    if (!v) return with_context("--values", v.error());
     overrides.push_back(std::move(*v));
   }
-  renderer::RenderOptions options;
-  options.aces = false;  // clamp: decoded pixels are linear radiance (times the exposure) below 1
-  if (auto problem = exposure_problem(a.exposure)) return failed({ErrorKind::InvalidArgument, *problem});
-  options.exposure = a.exposure;
+  for (const auto& text : a.cross) {
+    auto v = to::parse_knob_values(**study, text);
+    if (!v) return with_context("--cross", v.error());
+    crossed.push_back(std::move(*v));
+  }
+  s.options.aces = false;  // clamp: decoded pixels are linear radiance (times the exposure) below 1
+  if (auto problem = exposure_problem(a.exposure)) return fail(ErrorKind::InvalidArgument, "{}", *problem);
+  s.options.exposure = a.exposure;
   if (!a.size.empty()) {
     const auto size = parse_size(a.size, scene::max_output_side);
     if (!size)
-      return failed({ErrorKind::InvalidArgument, weft::format("--size expects WxH with each side 1 to {} (e.g. 640x360), got '{}'",
-                                                              scene::max_output_side, a.size)});
-    options.width = size->width, options.height = size->height;
+      return fail(ErrorKind::InvalidArgument, "--size expects WxH with each side 1 to {} (e.g. 640x360), got '{}'",
+                  scene::max_output_side, a.size);
+    s.options.width = size->width, s.options.height = size->height;
   }
+  auto bytes = read_input_file(a.scene_path, "scene file");
+  if (!bytes) return std::unexpected(bytes.error());
   auto scene = scene::load_scene(a.scene_path);
-  if (!scene) return failed(scene.error());
-  if (!to::scene_uses(*scene, (*study)->material))
-    return failed({ErrorKind::InvalidArgument,
-                   weft::format("'{}' has no \"{}\" material: nothing for the {} study to sweep", a.scene_path,
-                                (*study)->material, (*study)->feature)});
-  const std::filesystem::path out = a.out.empty() ? "tradeoff-" + (*study)->feature : a.out;
-  std::error_code ec;
-  std::filesystem::create_directories(out, ec);
-  if (ec) return failed({ErrorKind::Io, weft::format("cannot create '{}': {}", out.string(), ec.message())});
-  for (const auto& [name, value] : (*study)->environment) ::setenv(name.c_str(), value.c_str(), 1);
+  if (!scene) return std::unexpected(scene.error());
+  s.scene = std::move(*scene);
+  if (!to::scene_uses(s.scene, (*study)->material))
+    return fail(ErrorKind::InvalidArgument, "'{}' has no \"{}\" material: nothing for the {} study to sweep", a.scene_path,
+                (*study)->material, (*study)->feature);
+  s.out = a.out.empty() ? "tradeoff-" + (*study)->feature : a.out;
+  s.plan = to::plan_sweep(**study, overrides, crossed);
+  Hasher h;
+  h.str("weft tradeoff task 1").bytes(bytes->data(), bytes->size()).str((*study)->feature);
+  h.value(s.options.width).value(s.options.height).value(s.options.exposure).value(a.frames);
+  s.inputs = h.digest();
+  return s;
+}
 
+// A setting's task id and a coverage frame's: the inputs' hash and what the task renders.
+std::string setting_id(const Study& s, const to::Setting& setting) {
+  return hex64(Hasher{s.inputs}.str("setting").value(int(setting.quality)).value(setting.strip_knobs).str(setting.values.dump()).digest());
+}
+std::string coverage_id(const Study& s, bool white) {
+  return hex64(Hasher{s.inputs}.str(white ? "coverage white" : "coverage black").digest());
+}
+std::string result_file(const std::string& id, const char* ext) { return "tradeoff/" + id + ext; }
+
+// This command line again, with absolute paths, for a task or the reduce step.
+std::vector<std::string> base_command(const Args& a) {
+  std::vector<std::string> c = {self_path(), "tradeoff", std::filesystem::absolute(a.scene_path).string(), "--feature",
+                                a.feature, "--frames", std::to_string(a.frames)};
+  if (!a.size.empty()) c.insert(c.end(), {"--size", a.size});
+  if (a.exposure != 1.0f) c.insert(c.end(), {"--exposure", weft::format("{}", a.exposure)});
+  for (const auto& v : a.values) c.insert(c.end(), {"--values", v});
+  for (const auto& v : a.cross) c.insert(c.end(), {"--cross", v});
+  return c;
+}
+
+Result<farm::TaskList> task_list(const Args& a, const Study& s, const std::filesystem::path& cache) {
+  if (cache.empty())
+    return fail(ErrorKind::InvalidArgument, "no cache folder: give --cache DIR or set WEFT_CACHE_DIR (a folder every node can reach)");
+  farm::TaskList list;
+  list.cache = std::filesystem::absolute(cache);
+  list.what = weft::format("weft tradeoff {} --feature {}", a.scene_path, s.study->feature);
+  const auto add = [&](const std::string& id, std::string label) {
+    auto command = base_command(a);
+    command.insert(command.end(), {"--task", id, "--cache", list.cache.string()});
+    list.tasks.push_back({.id = id, .label = std::move(label), .command = std::move(command),
+                          .outputs = {result_file(id, ".png"), result_file(id, ".json")}});
+  };
+  for (const auto& setting : s.plan) add(setting_id(s, setting), s.study->feature + " " + setting.label);
+  add(coverage_id(s, false), s.study->feature + " coverage (black)");
+  add(coverage_id(s, true), s.study->feature + " coverage (white)");
+  auto reduce = base_command(a);
+  reduce.insert(reduce.end(), {"--from-cache", list.cache.string(), "-o", std::filesystem::absolute(s.out).string()});
+  list.reduce.push_back(std::move(reduce));
+  return list;
+}
+
+struct Device {
+  gpu::Instance instance;
+  gpu::Adapter adapter;
+  gpu::Device device;
+};
+
+Result<std::unique_ptr<Device>> open_device(const to::Study& study) {
+  for (const auto& [name, value] : study.environment) ::setenv(name.c_str(), value.c_str(), 1);
   auto instance = gpu::Instance::create({.application_name = "weft-tradeoff"});
-  if (!instance) return failed(instance.error());
+  if (!instance) return std::unexpected(instance.error());
   auto adapter = instance->request_adapter();
-  if (!adapter) return failed(adapter.error());
+  if (!adapter) return std::unexpected(adapter.error());
   auto device = adapter->request_device();
-  if (!device) return failed(device.error());
+  if (!device) return std::unexpected(device.error());
+  return std::make_unique<Device>(Device{std::move(*instance), std::move(*adapter), std::move(*device)});
+}
 
-  // On a CPU adapter (lavapipe) the frame's work is CPU time on every core, and GPU timestamps
-  // are wall time that other processes' load inflates: the process CPU time is the cost.
-  const bool cpu_adapter = adapter->info().type == gpu::AdapterType::Cpu;
-  const auto plan = to::plan_sweep(**study, overrides);
-  std::vector<Rendered> rendered;
-  const auto start = std::chrono::steady_clock::now();
-  for (std::size_t i = 0; i < plan.size(); ++i) {
-    auto r = render_setting(*device, *scene, **study, plan[i], options, a.frames, cpu_adapter);
-    if (!r) return failed(r.error());
-    for (const auto& w : r->warnings) log::warn(weft::format("{}: {}", plan[i].label, w));
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const double eta = elapsed / double(i + 1) * double(plan.size() - i - 1);
-    log::info(weft::format("[{}/{} {:.0f}%] {}: frame {:.1f} ms GPU, {:.1f} ms process CPU, cold {:.0f} ms (ETA {:.0f} s)",
-                           i + 1, plan.size(), 100.0 * double(i + 1) / double(plan.size()), plan[i].label,
-                           r->row.frame_ms, r->row.process_cpu_ms, r->row.cold_frame_ms, eta));
-    rendered.push_back(std::move(*r));
-  }
+std::string device_text(const gpu::Adapter& adapter) {
+  return weft::format("{} ({})", adapter.info().name, adapter.info().driver);
+}
+
+std::string host_name() {
+  char name[256] = {};
+  if (::gethostname(name, sizeof name - 1) != 0) return "unknown";
+  return name;
+}
+
+// The serial run and the reduce step end here: the mask, the errors, the reports.
+int write_reports(const Args& a, const Study& s, std::vector<Rendered>& rendered, const image::Image8& black,
+                  const image::Image8& white, const std::string& device, const std::string& frame_clock) {
+  std::error_code ec;
+  std::filesystem::create_directories(s.out, ec);
+  if (ec) return failed({ErrorKind::Io, weft::format("cannot create '{}': {}", s.out.string(), ec.message())});
   const image::Image8& reference = rendered.front().image;  // plan_sweep puts the reference first
-  auto black = coverage_render(*device, *scene, **study, options, false);
-  if (!black) return failed(black.error());
-  auto white = coverage_render(*device, *scene, **study, options, true);
-  if (!white) return failed(white.error());
   std::vector<const image::Image8*> images;
   for (const auto& r : rendered) images.push_back(&r.image);
-  auto mask = to::coverage_mask(*black, *white, images, reference);
+  auto mask = to::coverage_mask(black, white, images, reference);
   if (!mask) return failed(mask.error());
   if (mask->count() == 0)
     return failed({ErrorKind::InvalidArgument,
-                   weft::format("the {} objects cover no pixel of '{}' from its camera", (*study)->feature, a.scene_path)});
+                   weft::format("the {} objects cover no pixel of '{}' from its camera", s.study->feature, a.scene_path)});
   std::vector<to::Row> rows;
   for (auto& r : rendered) {
     auto e = to::compare(r.image, reference, *mask);
@@ -143,35 +227,223 @@ int run(const Args& a) {
     r.row.error = *e;
     rows.push_back(r.row);
   }
-  to::mark_pareto(rows, (*study)->cost);
+  to::mark_pareto(rows, s.study->cost);
 
   to::ReportInfo info;
-  info.feature = (*study)->feature;
+  info.feature = s.study->feature;
   info.scene = std::filesystem::path(a.scene_path).filename().string();
   info.width = reference.width, info.height = reference.height, info.frames = a.frames;
-  info.cost = (*study)->cost;
-  info.frame_clock = cpu_adapter ? "process CPU time" : "GPU timestamps";
-  info.device = weft::format("{} ({})", adapter->info().name, adapter->info().driver);
+  info.cost = s.study->cost;
+  info.frame_clock = frame_clock;
+  info.device = device;
   info.command = weft::format("weft tradeoff {} --feature {} --frames {}{}{}", a.scene_path, a.feature, a.frames,
                               a.size.empty() ? "" : " --size " + a.size,
                               a.exposure != 1.0f ? weft::format(" --exposure {}", a.exposure) : "");
   for (const auto& v : a.values) info.command += " --values " + v;
+  for (const auto& v : a.cross) info.command += " --cross " + v;
   info.mask_note = weft::format("{} of {} pixels (the feature's objects, and every pixel any setting changes)",
                                 mask->count(), std::size_t(reference.width) * reference.height);
   const std::pair<const char*, std::string> files[] = {{"tradeoff.csv", to::csv(rows, info)},
                                                        {"tradeoff.md", to::markdown(rows, info)},
                                                        {"tradeoff.svg", to::svg(rows, info)}};
-  for (const auto& [name, text] : files) {
-    std::ofstream f(out / name, std::ios::binary);
-    f << text;
-    if (!f) return failed({ErrorKind::Io, weft::format("cannot write '{}'", (out / name).string())});
-  }
-  if (auto ok = image::save_png(out / "reference.png", reference); !ok) return failed(ok.error());
+  for (const auto& [name, text] : files)
+    if (auto ok = write_file_atomically(s.out / name, {std::as_bytes(std::span(text))}, "study report"); !ok)
+      return failed(ok.error());
+  if (auto ok = image::save_png(s.out / "reference.png", reference); !ok) return failed(ok.error());
   std::printf("%s\nwrote %s/tradeoff.{csv,md,svg} and reference.png (%zu settings)\n", to::markdown(rows, info).c_str(),
-              out.string().c_str(), rows.size());
+              s.out.string().c_str(), rows.size());
   return 0;
 }
+
+int run_serial(const Args& a, const Study& s) {
+  auto dev = open_device(*s.study);
+  if (!dev) return failed(dev.error());
+  auto& device = (*dev)->device;
+  // On a CPU adapter (lavapipe) the frame's work is CPU time on every core, and GPU timestamps
+  // are wall time that other processes' load inflates: the process CPU time is the cost.
+  const bool cpu_adapter = (*dev)->adapter.info().type == gpu::AdapterType::Cpu;
+  std::vector<Rendered> rendered;
+  const auto start = std::chrono::steady_clock::now();
+  for (std::size_t i = 0; i < s.plan.size(); ++i) {
+    auto r = render_setting(device, s.scene, *s.study, s.plan[i], s.options, a.frames, cpu_adapter);
+    if (!r) return failed(r.error());
+    for (const auto& w : r->warnings) log::warn(weft::format("{}: {}", s.plan[i].label, w));
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double eta = elapsed / double(i + 1) * double(s.plan.size() - i - 1);
+    log::info(weft::format("[{}/{} {:.0f}%] {}: frame {:.1f} ms GPU, {:.1f} ms process CPU, cold {:.0f} ms (ETA {:.0f} s)",
+                           i + 1, s.plan.size(), 100.0 * double(i + 1) / double(s.plan.size()), s.plan[i].label,
+                           r->row.frame_ms, r->row.process_cpu_ms, r->row.cold_frame_ms, eta));
+    rendered.push_back(std::move(*r));
+  }
+  auto black = coverage_render(device, s.scene, *s.study, s.options, false);
+  if (!black) return failed(black.error());
+  auto white = coverage_render(device, s.scene, *s.study, s.options, true);
+  if (!white) return failed(white.error());
+  return write_reports(a, s, rendered, *black, *white, device_text((*dev)->adapter),
+                       cpu_adapter ? "process CPU time" : "GPU timestamps");
+}
+
+// One task: a setting (rendered alternately with the medium preset, the baseline of its cost
+// ratio) or a coverage frame; the image, then the measurements, written atomically into the cache.
+int run_task(const Args& a, const Study& s) {
+  if (a.cache.empty()) return failed({ErrorKind::InvalidArgument, "--task needs --cache DIR (where its output goes)"});
+  const std::filesystem::path cache = a.cache;
+  const to::Setting* setting = nullptr;
+  std::optional<bool> coverage;
+  for (const auto& p : s.plan)
+    if (setting_id(s, p) == a.task) setting = &p;
+  if (!setting) {
+    if (coverage_id(s, false) == a.task) coverage = false;
+    else if (coverage_id(s, true) == a.task) coverage = true;
+    else
+      return failed({ErrorKind::InvalidArgument,
+                     weft::format("--task {}: no setting or coverage frame of this study has that id (the scene file or "
+                                  "the options changed since the task list was made?)", a.task)});
+  }
+  const auto png = cache / result_file(a.task, ".png"), meta = cache / result_file(a.task, ".json");
+  std::error_code ec;
+  std::filesystem::create_directories(png.parent_path(), ec);
+  if (ec) return failed({ErrorKind::Io, weft::format("cannot create '{}': {}", png.parent_path().string(), ec.message())});
+  auto dev = open_device(*s.study);
+  if (!dev) return failed(dev.error());
+  auto& device = (*dev)->device;
+  const bool cpu_adapter = (*dev)->adapter.info().type == gpu::AdapterType::Cpu;
+  json result = {{"version", 1}, {"id", a.task}, {"node", host_name()}, {"adapter", device_text((*dev)->adapter)},
+                 {"frame_clock", cpu_adapter ? "process CPU time" : "GPU timestamps"}};
+  image::Image8 image;
+  if (coverage) {
+    auto r = coverage_render(device, s.scene, *s.study, s.options, *coverage);
+    if (!r) return failed(r.error());
+    image = std::move(*r);
+    result["label"] = *coverage ? "coverage white" : "coverage black";
+  } else {
+    const to::Setting baseline = to::preset_setting(*s.study, Quality::Medium);
+    auto r = study::render_alternating(device, s.scene, *s.study, *setting, baseline, s.options, a.frames, cpu_adapter);
+    if (!r) return failed(r.error());
+    for (const auto& w : r->setting.warnings) log::warn(weft::format("{}: {}", setting->label, w));
+    const auto& row = r->setting.row;
+    result["label"] = setting->label;
+    result["frame_ms"] = row.frame_ms;
+    result["gpu_ms"] = row.gpu_ms;
+    result["feature_gpu_ms"] = row.feature_gpu_ms;
+    result["process_cpu_ms"] = row.process_cpu_ms;
+    result["wall_ms"] = row.wall_ms;
+    result["cold_frame_ms"] = row.cold_frame_ms;
+    result["baseline"] = baseline.label;
+    result["baseline_frame_ms"] = r->baseline_frame_ms;
+    result["cost_ratio"] = r->cost_ratio;
+    result["warnings"] = r->setting.warnings;
+    log::info(weft::format("{}: frame {:.1f} ms, {:.3f}x the {}", setting->label, row.frame_ms, r->cost_ratio,
+                           baseline.label));
+    image = std::move(r->setting.image);
+  }
+  // The image first, the measurements last: the task is done once both are there.
+  if (auto ok = image::save_png(png, image); !ok) return failed(ok.error());
+  const std::string text = result.dump(2) + "\n";
+  if (auto ok = write_file_atomically(meta, {std::as_bytes(std::span(text))}, "task result"); !ok) return failed(ok.error());
+  return 0;
+}
+
+// The reduce step: every task's output from the cache, or the list of what is missing.
+int run_reduce(const Args& a, const Study& s) {
+  auto list = task_list(a, s, a.from_cache);
+  if (!list) return failed(list.error());
+  const auto missing = farm::missing_tasks(*list);
+  if (!missing.empty())
+    return failed({ErrorKind::NotFound,
+                   weft::format("{} of {} tasks have no output in '{}', so no table was written: {}", missing.size(),
+                                list->tasks.size(), list->cache.string(), farm::describe_missing(*list, missing))});
+  const auto load = [&](const std::string& id) -> Result<std::pair<image::Image8, json>> {
+    auto image = image::load_png(list->cache / result_file(id, ".png"));
+    if (!image) return std::unexpected(image.error());
+    auto bytes = read_input_file(list->cache / result_file(id, ".json"), "task result");
+    if (!bytes) return std::unexpected(bytes.error());
+    json meta = json::parse(bytes->begin(), bytes->end(), nullptr, false);
+    if (meta.is_discarded() || !meta.is_object() || meta.value("id", "") != id)
+      return fail(ErrorKind::Parse, "task result '{}' is not a weft task result for task {}",
+                  (list->cache / result_file(id, ".json")).string(), id);
+    return std::pair{std::move(*image), std::move(meta)};
+  };
+  std::vector<Rendered> rendered;
+  std::set<std::string> nodes, clocks;
+  for (const auto& setting : s.plan) {
+    auto r = load(setting_id(s, setting));
+    if (!r) return failed(r.error());
+    auto& [image, meta] = *r;
+    Rendered out;
+    out.image = std::move(image);
+    out.row.setting = setting;
+    const auto number = [&](const char* key) { return meta.contains(key) && meta[key].is_number() ? meta[key].get<double>() : 0.0; };
+    out.row.frame_ms = number("frame_ms");
+    out.row.gpu_ms = number("gpu_ms");
+    out.row.feature_gpu_ms = number("feature_gpu_ms");
+    out.row.process_cpu_ms = number("process_cpu_ms");
+    out.row.wall_ms = number("wall_ms");
+    out.row.cold_frame_ms = number("cold_frame_ms");
+    out.row.cost_ratio = number("cost_ratio");
+    out.row.node = meta.value("node", "") + " / " + meta.value("adapter", "");
+    nodes.insert(out.row.node);
+    clocks.insert(meta.value("frame_clock", ""));
+    rendered.push_back(std::move(out));
+  }
+  auto black = load(coverage_id(s, false));
+  if (!black) return failed(black.error());
+  auto white = load(coverage_id(s, true));
+  if (!white) return failed(white.error());
+  std::string device = *nodes.begin(), clock = *clocks.begin();
+  // Absolute times only where every task ran on one node type; otherwise the cost is the ratio.
+  if (nodes.size() > 1 || clocks.size() > 1) {
+    for (auto& r : rendered) r.row.frame_ms = r.row.cost_ratio;
+    device = weft::format("{} nodes", nodes.size());
+    clock = "ratio to the medium preset rendered alternately in the same task (not ms: the tasks ran on different nodes)";
+  } else {
+    clock += "; cost ratio: to the medium preset rendered alternately in the same task";
+  }
+  return write_reports(a, s, rendered, black->first, white->first, device, clock);
+}
+
+int run(const Args& a) {
+  if (a.list) {
+    print_list();
+    return 0;
+  }
+  const int modes = int(!a.tasks_file.empty()) + int(!a.task.empty()) + int(!a.from_cache.empty()) + int(!a.farm.runner.empty());
+  if (modes > 1) return failed({ErrorKind::InvalidArgument, "--tasks, --task, --from-cache and --farm are one each: give one"});
+  if (auto problem = check_farm_options(a.farm)) return failed({ErrorKind::InvalidArgument, *problem});
+  auto s = prepare(a);
+  if (!s) return failed(s.error());
+  if (!a.task.empty()) return run_task(a, *s);
+  if (!a.from_cache.empty()) return run_reduce(a, *s);
+  if (!a.tasks_file.empty() || !a.farm.runner.empty()) {
+    auto list = task_list(a, *s, a.cache.empty() ? farm::default_cache_dir() : std::filesystem::path(a.cache));
+    if (!list) return failed(list.error());
+    if (!a.tasks_file.empty()) {
+      const std::string text = farm::to_text(*list);
+      if (auto ok = write_file_atomically(a.tasks_file, {std::as_bytes(std::span(text))}, "task list"); !ok) return failed(ok.error());
+      std::printf("wrote %s: %zu tasks, reduce: %s\n", a.tasks_file.c_str(), list->tasks.size(),
+                  list->reduce.empty() ? "none" : "weft tradeoff ... --from-cache");
+      return 0;
+    }
+    return run_farm(*list, a.farm, "weft tradeoff");
+  }
+  return run_serial(a, *s);
+}
 }  // namespace
+
+Result<farm::TaskList> tradeoff_tasks_for(const farm::StudySpec& spec, const std::filesystem::path& cache) {
+  Args a;
+  a.scene_path = spec.scene.string();
+  a.feature = spec.feature;
+  a.size = spec.size;
+  a.frames = spec.frames;
+  a.exposure = float(spec.exposure);
+  a.values = spec.values;
+  a.cross = spec.cross;
+  a.out = spec.out.string();
+  auto s = prepare(a);
+  if (!s) return with_context(spec.json_path, s.error());
+  return task_list(a, *s, cache);
+}
 
 Command add_tradeoff(CLI::App& app) {
   auto* sub = app.add_subcommand("tradeoff", "Sweep a feature's quality knobs: error against frame time, Pareto front");
@@ -183,7 +455,16 @@ Command add_tradeoff(CLI::App& app) {
   sub->add_option("-s,--size", a->size, "Frame size WxH (default: the scene's)");
   sub->add_option("--exposure", a->exposure, "Exposure before the clamp (keep the feature below 1)")->capture_default_str();
   sub->add_option("--values", a->values, "Replace a knob's sweep: KNOB=V1,V2,... (repeatable)");
+  sub->add_option("--cross", a->cross, "Also render every combination of these knobs' values: KNOB=V1,V2,... (repeatable)");
   sub->add_flag("--list", a->list, "Print each feature's knobs and reference, and exit");
+  sub->add_option("--tasks", a->tasks_file, "Write the study as a task list (JSON, docs/farm.md) to this file and exit")
+      ->type_name("FILE");
+  sub->add_option("--task", a->task, "Run one task of the study (its id from the task list) into --cache")->type_name("ID");
+  sub->add_option("--from-cache", a->from_cache, "The reduce step: write the reports from the tasks' outputs in this cache folder")
+      ->type_name("DIR");
+  sub->add_option("--cache", a->cache, "The cache folder of the tasks' outputs (default: $WEFT_CACHE_DIR, else ~/.cache/weft/farm)")
+      ->type_name("DIR");
+  add_farm_options(*sub, a->farm);
   return [a] { return run(*a); };
 }
 

@@ -1,0 +1,113 @@
+#!/usr/bin/env bash
+# test_farm_slurm WEFT slurm_cluster.sh: a tiny fur study through a one-node Slurm cluster
+# started here (munged with a fresh key, slurmctld + slurmd, no cgroups) and stopped at the
+# end. One array task is requeued while it runs (as a pre-emption does) and one is cancelled
+# (scancel) and requeued (scontrol requeue); every task's output must be there, uncorrupted,
+# and the merged errors must equal `--farm local`'s byte for byte. Bad input (an unknown
+# partition) is refused before anything is submitted. Exit 77 (ctest: skipped) with one line
+# saying why only when the daemons cannot start on this machine.
+set -uo pipefail
+weft="${1:?usage: test_farm_slurm.sh WEFT slurm_cluster.sh}"
+cluster="${2:?usage: test_farm_slurm.sh WEFT slurm_cluster.sh}"
+source_dir="${WEFT_SOURCE_DIR:?WEFT_SOURCE_DIR must name the source tree}"
+work=$(mktemp -d /tmp/weft-slurm-test.XXXXXX)
+fail() { echo "test_farm_slurm: FAILED: $*" >&2; exit 1; }
+cleanup() { bash "$cluster" stop "$work/cluster" >/dev/null 2>&1; [ "${keep:-0}" = 1 ] || rm -rf "$work"; }
+trap cleanup EXIT
+
+if ! out=$(bash "$cluster" start "$work/cluster" 2>&1); then
+  echo "test_farm_slurm: skipped: ${out##*$'\n'}"
+  exit 77
+fi
+export SLURM_CONF="$work/cluster/slurm.conf"
+echo "cluster up: $(sinfo -h -o '%P %t %c CPUs' | head -1)"
+
+cat >"$work/fur.json" <<JSON
+{"version": 1, "output": {"width": 32, "height": 24},
+ "camera": {"position": [0, 0.4, 2], "target": [0, 0, 0]},
+ "lights": [{"type": "directional", "direction": [-0.5, -1, -0.4], "intensity": 2}],
+ "environment": {"color": [0.2, 0.2, 0.2]},
+ "meshes": {"ball": {"primitive": "sphere", "radius": 0.5, "segments": 16}},
+ "materials": {"fur": {"type": "fur", "photo": "$source_dir/examples/fur/synthetic_fur.png", "layers": 4, "wrap": "repeat"}},
+ "objects": [{"name": "ball", "mesh": "ball", "material": "fur"}]}
+JSON
+study=("$weft" tradeoff "$work/fur.json" --feature fur --frames 2 --values layers=1,2,4,8 --values fin_threshold=0.5)
+
+# bad input: an unknown partition is named, nothing is submitted
+if bad=$("${study[@]}" --farm slurm --partition nosuch --cache "$work/cache" -o "$work/slurm" 2>&1); then fail "--partition nosuch was accepted: $bad"; fi
+echo "$bad" | grep -q "nosuch" || fail "the unknown partition is not named: $bad"
+echo "$bad" | grep -q "test" || fail "the cluster's partitions are not listed: $bad"
+[ -z "$(squeue -h)" ] || fail "a job was submitted for a bad partition"
+
+# the study through the cluster
+submitted=$("${study[@]}" --farm slurm --max-parallel 2 --cache "$work/cache" -o "$work/slurm" 2>&1) || fail "submit: $submitted"
+echo "$submitted"
+array=$(echo "$submitted" | sed -n 's/^submitted array job \([0-9]*\) .*/\1/p')
+[ -n "$array" ] || fail "no array job id in: $submitted"
+tasks=$(echo "$submitted" | sed -n 's/^submitted array job [0-9]* (\([0-9]*\) tasks).*/\1/p')
+[ "$tasks" -ge 6 ] || fail "expected at least 6 tasks, got '$tasks'"
+
+# pre-empt the first task seen running, cancel and requeue the last one
+running=""
+for _ in $(seq 400); do
+  running=$(squeue -h -r -j "$array" -t R -o '%K' | head -1)
+  [ -n "$running" ] && break
+  sleep 0.05
+done
+[ -n "$running" ] || fail "no array task ever ran"
+scontrol requeue "${array}_${running}" || fail "scontrol requeue ${array}_${running} refused"
+echo "requeued running task $running"
+last=$((tasks - 1))
+scancel "${array}_${last}" || fail "scancel ${array}_${last} refused"
+for _ in $(seq 100); do
+  state=$(scontrol show job "${array}_${last}" -o 2>/dev/null | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p')
+  [ "$state" = CANCELLED ] && break
+  sleep 0.1
+done
+[ "$state" = CANCELLED ] || fail "task $last is $state after scancel"
+scontrol requeue "${array}_${last}" || fail "scontrol requeue of the cancelled task $last refused"
+# a requeued job waits out the credential lifetime before it may start again; start it now
+scontrol update JobId="${array}_${last}" StartTime=now >/dev/null 2>&1 || true
+scontrol update JobId="${array}_${running}" StartTime=now >/dev/null 2>&1 || true
+echo "cancelled and requeued task $last"
+
+"$weft" farm status "$array" --cache "$work/cache" || fail "farm status"
+waited=$("$weft" farm wait "$array" --cache "$work/cache" --timeout 240 2>&1) || { keep=1; fail "farm wait: $waited (kept $work)"; }
+echo "$waited"
+[ -f "$work/slurm/tradeoff.csv" ] || fail "the reduce job wrote no tradeoff.csv"
+"$weft" farm collect "$array" --cache "$work/cache" >/dev/null 2>&1 || fail "farm collect"
+
+# nothing lost, nothing half-written
+list=$(ls "$work"/cache/farm/*.tasks.json | head -1)
+leftover=$(find "$work/cache/tradeoff" -name '*.tmp' | wc -l)
+[ "$leftover" -eq 0 ] || fail "$leftover temporary files left in the cache"
+python3 - "$list" "$work/cache" "$running" <<'PY' || fail "task outputs"
+import json, sys, os
+tasks = json.load(open(sys.argv[1]))["tasks"]
+for t in tasks:
+    for o in t["outputs"]:
+        p = os.path.join(sys.argv[2], o)
+        assert os.path.isfile(p), "missing " + p
+        if p.endswith(".json"):
+            assert json.load(open(p))["id"] == t["id"], "damaged " + p
+        else:
+            assert open(p, "rb").read(8) == b"\x89PNG\r\n\x1a\n", "damaged " + p
+log = open(os.path.join(sys.argv[2], "logs", tasks[int(sys.argv[3])]["id"] + ".log")).read()
+assert log.count("[weft farm] task ") >= 1, "the requeued task never started"
+print(f"{len(tasks)} tasks, every output present and whole; the requeued task started {log.count('[weft farm] task ')} time(s)")
+PY
+
+# the same study with --farm local: errors byte for byte
+"${study[@]}" --farm local -j 2 --cache "$work/local-cache" -o "$work/local" >/dev/null 2>&1 || fail "--farm local"
+python3 - "$work/slurm/tradeoff.csv" "$work/local/tradeoff.csv" <<'PY' || fail "merged errors differ from --farm local"
+import csv, sys
+def errors(path):
+    rows = list(csv.DictReader(open(path)))
+    keys = ["rmse_linear", "relative_rmse", "psnr_db", "ssim", "max_diff", "pixels"]
+    assert all(r["cost_ratio"] not in ("", "nan") for r in rows), "a row without a cost ratio in " + path
+    return {r["setting"]: [r[k] for k in keys] for r in rows}
+a, b = errors(sys.argv[1]), errors(sys.argv[2])
+assert a == b, f"{a} != {b}"
+print(f"{len(a)} settings: errors identical to --farm local, costs as ratios")
+PY
+echo "test_farm_slurm: passed"
