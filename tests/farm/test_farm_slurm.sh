@@ -47,29 +47,34 @@ array=$(echo "$submitted" | sed -n 's/^submitted array job \([0-9]*\) .*/\1/p')
 tasks=$(echo "$submitted" | sed -n 's/^submitted array job [0-9]* (\([0-9]*\) tasks).*/\1/p')
 [ "$tasks" -ge 6 ] || fail "expected at least 6 tasks, got '$tasks'"
 
-# pre-empt the first task seen running, cancel and requeue the last one
-running=""
-for _ in $(seq 400); do
-  running=$(squeue -h -r -j "$array" -t R -o '%K' | head -1)
-  [ -n "$running" ] && break
-  sleep 0.05
-done
+# pre-empt the first task seen running (scontrol requeue), then cancel another running one
+# and requeue it (a pending array task cannot be: scancel drops it from the array)
+running_task() {  # the index of a running array task other than $1, or nothing after ~20 s
+  local t
+  for _ in $(seq 400); do
+    t=$(squeue -h -r -j "$array" -t R -o '%K' | grep -vx "${1:-none}" | head -1)
+    [ -n "$t" ] && { echo "$t"; return; }
+    sleep 0.05
+  done
+}
+running=$(running_task)
 [ -n "$running" ] || fail "no array task ever ran"
 scontrol requeue "${array}_${running}" || fail "scontrol requeue ${array}_${running} refused"
 echo "requeued running task $running"
-last=$((tasks - 1))
-scancel "${array}_${last}" || fail "scancel ${array}_${last} refused"
+cancelled=$(running_task "$running")
+[ -n "$cancelled" ] || fail "no second array task ran"
+scancel "${array}_${cancelled}" || fail "scancel ${array}_${cancelled} refused"
+state=""
 for _ in $(seq 100); do
-  state=$(scontrol show job "${array}_${last}" -o 2>/dev/null | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p')
+  state=$(scontrol show job "${array}_${cancelled}" -o 2>/dev/null | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p')
   [ "$state" = CANCELLED ] && break
   sleep 0.1
 done
-[ "$state" = CANCELLED ] || fail "task $last is $state after scancel"
-scontrol requeue "${array}_${last}" || fail "scontrol requeue of the cancelled task $last refused"
-# a requeued job waits out the credential lifetime before it may start again; start it now
-scontrol update JobId="${array}_${last}" StartTime=now >/dev/null 2>&1 || true
-scontrol update JobId="${array}_${running}" StartTime=now >/dev/null 2>&1 || true
-echo "cancelled and requeued task $last"
+[ "$state" = CANCELLED ] || fail "task $cancelled is '$state' after scancel"
+scontrol requeue "${array}_${cancelled}" || fail "scontrol requeue of the cancelled task $cancelled refused"
+# a requeued job waits out the credential lifetime before it may start again; start them now
+for t in "$running" "$cancelled"; do scontrol update JobId="${array}_${t}" StartTime=now >/dev/null 2>&1 || true; done
+echo "cancelled and requeued task $cancelled"
 
 "$weft" farm status "$array" --cache "$work/cache" || fail "farm status"
 waited=$("$weft" farm wait "$array" --cache "$work/cache" --timeout 240 2>&1) || { keep=1; fail "farm wait: $waited (kept $work)"; }
@@ -81,7 +86,7 @@ echo "$waited"
 list=$(ls "$work"/cache/farm/*.tasks.json | head -1)
 leftover=$(find "$work/cache/tradeoff" -name '*.tmp' | wc -l)
 [ "$leftover" -eq 0 ] || fail "$leftover temporary files left in the cache"
-python3 - "$list" "$work/cache" "$running" <<'PY' || fail "task outputs"
+python3 - "$list" "$work/cache" "$running" "$cancelled" <<'PY' || fail "task outputs"
 import json, sys, os
 tasks = json.load(open(sys.argv[1]))["tasks"]
 for t in tasks:
@@ -92,9 +97,13 @@ for t in tasks:
             assert json.load(open(p))["id"] == t["id"], "damaged " + p
         else:
             assert open(p, "rb").read(8) == b"\x89PNG\r\n\x1a\n", "damaged " + p
-log = open(os.path.join(sys.argv[2], "logs", tasks[int(sys.argv[3])]["id"] + ".log")).read()
-assert log.count("[weft farm] task ") >= 1, "the requeued task never started"
-print(f"{len(tasks)} tasks, every output present and whole; the requeued task started {log.count('[weft farm] task ')} time(s)")
+starts = []
+for index in sys.argv[3:5]:
+    log = open(os.path.join(sys.argv[2], "logs", tasks[int(index)]["id"] + ".log")).read()
+    starts.append(log.count("[weft farm] task "))
+# each was stopped while running and ran again (or found its output done and skipped)
+assert all(n >= 1 for n in starts), f"a requeued task never started: {starts}"
+print(f"{len(tasks)} tasks, every output present and whole; the requeued and the cancelled task started {starts} times")
 PY
 
 # the same study with --farm local: errors byte for byte
