@@ -127,6 +127,21 @@ TEST_CASE("weft tradeoff --farm local -j 2: the serial run's errors byte for byt
     CHECK(seen);
   }
 
+  // Several settings per task and no baseline: the same errors, and then the serial run's columns.
+  const auto batched = run_command(f.study() + " --farm local -j 2 --batch 5 --baseline none --cache " + (f.dir / "cache-b").string() +
+                                   " -o " + (f.dir / "batched").string());
+  REQUIRE_MESSAGE(batched.exit_code == 0, batched.output);
+  std::vector<std::string> plain, serial_header;
+  CHECK(errors(read(f.dir / "batched/tradeoff.csv"), &plain) == a);
+  errors(read(f.dir / "serial/tradeoff.csv"), &serial_header);
+  CHECK(plain == serial_header);
+  const std::size_t units = a.size() + 2;  // the settings and the two coverage frames
+  CHECK_MESSAGE(contains(batched.output, "farm: " + std::to_string((units + 4) / 5) + " tasks"), batched.output);
+  CHECK(contains(farmed.output, "farm: " + std::to_string(units) + " tasks"));
+  const auto bad_baseline = run_command(f.study() + " --farm local --baseline ultra --cache " + (f.dir / "cache-x").string());
+  CHECK(bad_baseline.exit_code != 0);
+  CHECK(contains(bad_baseline.output, "--baseline 'ultra'"));
+
   // Again: every task is in the cache, nothing renders, the same report.
   const auto again = run_command(f.study() + " --farm local -j 2 --cache " + f.cache.string() + " -o " + (f.dir / "farm2").string());
   REQUIRE_MESSAGE(again.exit_code == 0, again.output);

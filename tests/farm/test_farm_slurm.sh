@@ -119,4 +119,15 @@ a, b = errors(sys.argv[1]), errors(sys.argv[2])
 assert a == b, f"{a} != {b}"
 print(f"{len(a)} settings: errors identical to --farm local, costs as ratios")
 PY
+# several settings per array task, submitted and waited for in one command (--wait)
+"${study[@]}" --farm slurm --batch 6 --wait --cache "$work/cache-batch" -o "$work/slurm-batch" >"$work/batch.log" 2>&1 ||
+  fail "--farm slurm --batch 6 --wait: $(tail -3 "$work/batch.log")"
+grep -q "submitted array job [0-9]* (3 tasks)" "$work/batch.log" || fail "expected 3 tasks of 6 settings: $(head -3 "$work/batch.log")"
+python3 - "$work/slurm-batch/tradeoff.csv" "$work/local/tradeoff.csv" <<'PY' || fail "batched errors differ from --farm local"
+import csv, sys
+keys = ["rmse_linear", "relative_rmse", "psnr_db", "ssim", "max_diff", "pixels"]
+e = lambda p: {r["setting"]: [r[k] for k in keys] for r in csv.DictReader(open(p))}
+assert e(sys.argv[1]) == e(sys.argv[2])
+print("--batch 6 --wait: errors identical")
+PY
 echo "test_farm_slurm: passed"

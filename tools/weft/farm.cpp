@@ -25,7 +25,8 @@ import weft.farm;
 namespace weft::cli {
 // farm_slurm.cpp
 std::optional<std::string> slurm_problem(const FarmOptions& options);
-int submit_slurm(const farm::TaskList& list, const std::filesystem::path& list_file, const FarmOptions& options);
+int submit_slurm(const farm::TaskList& list, const std::filesystem::path& list_file, const FarmOptions& options,
+                 std::string* array_id);
 int slurm_status(const std::filesystem::path& cache, const std::string& id, bool quiet, bool* all_finished,
                  std::string* reduce_state);
 int slurm_wait(const std::filesystem::path& cache, const std::string& id, double timeout_s);
@@ -91,15 +92,10 @@ int run_farm(const farm::TaskList& list, const FarmOptions& options, const std::
   auto file = farm::save_task_list(list);
   if (!file) return failed(what.c_str(), file.error());
   if (options.runner == "slurm") {
-    const int rc = submit_slurm(list, *file, options);
+    std::string array;
+    const int rc = submit_slurm(list, *file, options, &array);
     if (rc != 0 || !options.wait) return rc;
-    // the array job's id is in the record submit_slurm wrote; the newest record is ours
-    std::filesystem::path newest;
-    std::filesystem::file_time_type when{};
-    std::error_code ec;
-    for (const auto& e : std::filesystem::directory_iterator(list.cache / "farm" / "jobs", ec))
-      if (e.last_write_time() >= when) when = e.last_write_time(), newest = e.path();
-    return slurm_wait(list.cache, newest.stem().string(), 0);
+    return slurm_wait(list.cache, array, 0);
   }
   log::info(weft::format("farm: {} tasks, list {}, logs in {}", list.tasks.size(), file->string(),
                          (list.cache / "logs").string()));

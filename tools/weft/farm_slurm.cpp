@@ -191,7 +191,8 @@ std::optional<std::string> slurm_problem(const FarmOptions& options) {
   return std::nullopt;
 }
 
-int submit_slurm(const farm::TaskList& list, const std::filesystem::path& list_file, const FarmOptions& options) {
+int submit_slurm(const farm::TaskList& list, const std::filesystem::path& list_file, const FarmOptions& options,
+                 std::string* array_id) {
   if (auto problem = slurm_problem(options)) {
     std::fprintf(stderr, "weft farm: %s\n", problem->c_str());
     return 2;
@@ -231,6 +232,7 @@ int submit_slurm(const farm::TaskList& list, const std::filesystem::path& list_f
     std::fprintf(stderr, "weft farm: %s\n", ok.error().what().c_str());
     return 1;
   }
+  if (array_id) *array_id = *array;
   std::printf("submitted array job %s (%zu tasks) and reduce job %s (afterok:%s)\n"
               "follow: weft farm status|wait|collect %s --cache %s\n",
               array->c_str(), list.tasks.size(), reduce->c_str(), array->c_str(), array->c_str(), list.cache.c_str());

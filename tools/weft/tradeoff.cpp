@@ -36,6 +36,7 @@ import weft.renderer;
 import weft.tradeoff;
 import weft.study;
 import weft.farm;
+import weft.feature;
 
 namespace weft::cli {
 // farm.cpp: the runners shared by `weft tradeoff --farm` and `weft farm run`.
@@ -52,6 +53,8 @@ struct Args {
   float exposure = 1.0f;
   std::vector<std::string> values, cross;
   bool list = false;
+  unsigned batch = 1;  // settings per farm task
+  std::string baseline = "medium";  // farm tasks: the preset rendered alternately for the cost ratio, or "none"
   // the farm
   std::string tasks_file, task, from_cache, cache;
   FarmOptions farm;
@@ -91,6 +94,7 @@ struct Study {
   std::vector<to::Setting> plan;
   std::filesystem::path out;
   std::uint64_t inputs = 0;  // hash of the scene file's bytes and the options every task shares
+  std::optional<Quality> baseline;  // farm tasks' cost baseline (a preset), or none
 };
 
 Result<Study> prepare(const Args& a) {
@@ -131,6 +135,11 @@ Result<Study> prepare(const Args& a) {
                 (*study)->material, (*study)->feature);
   s.out = a.out.empty() ? "tradeoff-" + (*study)->feature : a.out;
   s.plan = to::plan_sweep(**study, overrides, crossed);
+  if (a.baseline != "none") {
+    auto q = quality_from_string(a.baseline);
+    if (!q) return fail(ErrorKind::InvalidArgument, "--baseline '{}': expected low, medium, high, reference or none", a.baseline);
+    s.baseline = *q;
+  }
   Hasher h;
   h.str("weft tradeoff task 1").bytes(bytes->data(), bytes->size()).str((*study)->feature);
   h.value(s.options.width).value(s.options.height).value(s.options.exposure).value(a.frames);
@@ -140,7 +149,7 @@ Result<Study> prepare(const Args& a) {
 
 // A setting's task id and a coverage frame's: the inputs' hash and what the task renders.
 std::string setting_id(const Study& s, const to::Setting& setting) {
-  return hex64(Hasher{s.inputs}.str("setting").value(int(setting.quality)).value(setting.strip_knobs).str(setting.values.dump()).digest());
+  return hex64(Hasher{s.inputs}.str("setting").str(s.baseline ? to::to_string(*s.baseline) : "no baseline").value(int(setting.quality)).value(setting.strip_knobs).str(setting.values.dump()).digest());
 }
 std::string coverage_id(const Study& s, bool white) {
   return hex64(Hasher{s.inputs}.str(white ? "coverage white" : "coverage black").digest());
@@ -153,6 +162,8 @@ std::vector<std::string> base_command(const Args& a) {
                                 a.feature, "--frames", std::to_string(a.frames)};
   if (!a.size.empty()) c.insert(c.end(), {"--size", a.size});
   if (a.exposure != 1.0f) c.insert(c.end(), {"--exposure", weft::format("{}", a.exposure)});
+  if (a.baseline != "medium") c.insert(c.end(), {"--baseline", a.baseline});
+  if (a.batch != 1) c.insert(c.end(), {"--batch", std::to_string(a.batch)});
   for (const auto& v : a.values) c.insert(c.end(), {"--values", v});
   for (const auto& v : a.cross) c.insert(c.end(), {"--cross", v});
   return c;
@@ -164,15 +175,27 @@ Result<farm::TaskList> task_list(const Args& a, const Study& s, const std::files
   farm::TaskList list;
   list.cache = std::filesystem::absolute(cache);
   list.what = weft::format("weft tradeoff {} --feature {}", a.scene_path, s.study->feature);
-  const auto add = [&](const std::string& id, std::string label) {
+  // Units (a setting, a coverage frame) dealt round-robin into tasks of --batch units each, so
+  // every task gets a share of the cheap and of the costly settings.
+  std::vector<std::pair<std::string, std::string>> units;  // id, label
+  for (const auto& setting : s.plan) units.emplace_back(setting_id(s, setting), setting.label);
+  units.emplace_back(coverage_id(s, false), "coverage (black)");
+  units.emplace_back(coverage_id(s, true), "coverage (white)");
+  const std::size_t tasks = (units.size() + a.batch - 1) / a.batch;
+  for (std::size_t t = 0; t < tasks; ++t) {
+    std::string ids, label;
+    std::vector<std::string> outputs;
+    for (std::size_t i = t; i < units.size(); i += tasks) {
+      ids += (ids.empty() ? "" : ",") + units[i].first;
+      label += (label.empty() ? "" : ", ") + units[i].second;
+      outputs.push_back(result_file(units[i].first, ".png"));
+      outputs.push_back(result_file(units[i].first, ".json"));
+    }
+    const std::string id = a.batch == 1 ? ids : hex64(Hasher{}.str(ids).digest());
     auto command = base_command(a);
-    command.insert(command.end(), {"--task", id, "--cache", list.cache.string()});
-    list.tasks.push_back({.id = id, .label = std::move(label), .command = std::move(command),
-                          .outputs = {result_file(id, ".png"), result_file(id, ".json")}});
-  };
-  for (const auto& setting : s.plan) add(setting_id(s, setting), s.study->feature + " " + setting.label);
-  add(coverage_id(s, false), s.study->feature + " coverage (black)");
-  add(coverage_id(s, true), s.study->feature + " coverage (white)");
+    command.insert(command.end(), {"--task", ids, "--cache", list.cache.string()});
+    list.tasks.push_back({.id = id, .label = s.study->feature + " " + label, .command = std::move(command), .outputs = std::move(outputs)});
+  }
   auto reduce = base_command(a);
   reduce.insert(reduce.end(), {"--from-cache", list.cache.string(), "-o", std::filesystem::absolute(s.out).string()});
   list.reduce.push_back(std::move(reduce));
@@ -283,64 +306,87 @@ int run_serial(const Args& a, const Study& s) {
                        cpu_adapter ? "process CPU time" : "GPU timestamps");
 }
 
-// One task: a setting (rendered alternately with the medium preset, the baseline of its cost
-// ratio) or a coverage frame; the image, then the measurements, written atomically into the cache.
+// One task: settings (each rendered alternately with the baseline preset for its cost ratio)
+// and coverage frames, `--task ID[,ID...]`; each one's image, then its measurements, written
+// atomically into the cache as soon as it is rendered, and those already there skipped.
 int run_task(const Args& a, const Study& s) {
   if (a.cache.empty()) return failed({ErrorKind::InvalidArgument, "--task needs --cache DIR (where its output goes)"});
   const std::filesystem::path cache = a.cache;
-  const to::Setting* setting = nullptr;
-  std::optional<bool> coverage;
-  for (const auto& p : s.plan)
-    if (setting_id(s, p) == a.task) setting = &p;
-  if (!setting) {
-    if (coverage_id(s, false) == a.task) coverage = false;
-    else if (coverage_id(s, true) == a.task) coverage = true;
-    else
+  struct Unit {
+    std::string id;
+    const to::Setting* setting = nullptr;
+    bool white = false;
+  };
+  std::vector<Unit> units;
+  for (std::size_t from = 0; from <= a.task.size();) {
+    const std::size_t comma = std::min(a.task.find(',', from), a.task.size());
+    Unit u{a.task.substr(from, comma - from)};
+    from = comma + 1;
+    for (const auto& p : s.plan)
+      if (setting_id(s, p) == u.id) u.setting = &p;
+    if (!u.setting && coverage_id(s, true) == u.id) u.white = true;
+    if (!u.setting && !u.white && coverage_id(s, false) != u.id)
       return failed({ErrorKind::InvalidArgument,
                      weft::format("--task {}: no setting or coverage frame of this study has that id (the scene file or "
-                                  "the options changed since the task list was made?)", a.task)});
+                                  "the options changed since the task list was made?)", u.id)});
+    units.push_back(std::move(u));
   }
-  const auto png = cache / result_file(a.task, ".png"), meta = cache / result_file(a.task, ".json");
   std::error_code ec;
-  std::filesystem::create_directories(png.parent_path(), ec);
-  if (ec) return failed({ErrorKind::Io, weft::format("cannot create '{}': {}", png.parent_path().string(), ec.message())});
-  auto dev = open_device(*s.study);
-  if (!dev) return failed(dev.error());
-  auto& device = (*dev)->device;
-  const bool cpu_adapter = (*dev)->adapter.info().type == gpu::AdapterType::Cpu;
-  json result = {{"version", 1}, {"id", a.task}, {"node", host_name()}, {"adapter", device_text((*dev)->adapter)},
-                 {"frame_clock", cpu_adapter ? "process CPU time" : "GPU timestamps"}};
-  image::Image8 image;
-  if (coverage) {
-    auto r = coverage_render(device, s.scene, *s.study, s.options, *coverage);
-    if (!r) return failed(r.error());
-    image = std::move(*r);
-    result["label"] = *coverage ? "coverage white" : "coverage black";
-  } else {
-    const to::Setting baseline = to::preset_setting(*s.study, Quality::Medium);
-    auto r = study::render_alternating(device, s.scene, *s.study, *setting, baseline, s.options, a.frames, cpu_adapter);
-    if (!r) return failed(r.error());
-    for (const auto& w : r->setting.warnings) log::warn(weft::format("{}: {}", setting->label, w));
-    const auto& row = r->setting.row;
-    result["label"] = setting->label;
-    result["frame_ms"] = row.frame_ms;
-    result["gpu_ms"] = row.gpu_ms;
-    result["feature_gpu_ms"] = row.feature_gpu_ms;
-    result["process_cpu_ms"] = row.process_cpu_ms;
-    result["wall_ms"] = row.wall_ms;
-    result["cold_frame_ms"] = row.cold_frame_ms;
-    result["baseline"] = baseline.label;
-    result["baseline_frame_ms"] = r->baseline_frame_ms;
-    result["cost_ratio"] = r->cost_ratio;
-    result["warnings"] = r->setting.warnings;
-    log::info(weft::format("{}: frame {:.1f} ms, {:.3f}x the {}", setting->label, row.frame_ms, r->cost_ratio,
-                           baseline.label));
-    image = std::move(r->setting.image);
+  std::filesystem::create_directories(cache / "tradeoff", ec);
+  if (ec) return failed({ErrorKind::Io, weft::format("cannot create '{}': {}", (cache / "tradeoff").string(), ec.message())});
+  std::unique_ptr<Device> dev;
+  for (const Unit& u : units) {
+    const auto png = cache / result_file(u.id, ".png"), meta = cache / result_file(u.id, ".json");
+    if (std::filesystem::is_regular_file(png, ec) && std::filesystem::is_regular_file(meta, ec)) continue;
+    if (!dev) {
+      auto opened = open_device(*s.study);
+      if (!opened) return failed(opened.error());
+      dev = std::move(*opened);
+    }
+    auto& device = dev->device;
+    const bool cpu_adapter = dev->adapter.info().type == gpu::AdapterType::Cpu;
+    json result = {{"version", 1}, {"id", u.id}, {"node", host_name()}, {"adapter", device_text(dev->adapter)},
+                   {"frame_clock", cpu_adapter ? "process CPU time" : "GPU timestamps"}};
+    image::Image8 image;
+    const auto record = [&](const to::Row& row, const std::vector<std::string>& warnings) {
+      for (const auto& w : warnings) log::warn(weft::format("{}: {}", u.setting->label, w));
+      result["label"] = u.setting->label;
+      result["frame_ms"] = row.frame_ms;
+      result["gpu_ms"] = row.gpu_ms;
+      result["feature_gpu_ms"] = row.feature_gpu_ms;
+      result["process_cpu_ms"] = row.process_cpu_ms;
+      result["wall_ms"] = row.wall_ms;
+      result["cold_frame_ms"] = row.cold_frame_ms;
+      result["warnings"] = warnings;
+    };
+    if (!u.setting) {
+      auto r = coverage_render(device, s.scene, *s.study, s.options, u.white);
+      if (!r) return failed(r.error());
+      image = std::move(*r);
+      result["label"] = u.white ? "coverage white" : "coverage black";
+    } else if (!s.baseline) {
+      auto r = render_setting(device, s.scene, *s.study, *u.setting, s.options, a.frames, cpu_adapter);
+      if (!r) return failed(r.error());
+      record(r->row, r->warnings);
+      log::info(weft::format("{}: frame {:.1f} ms", u.setting->label, r->row.frame_ms));
+      image = std::move(r->image);
+    } else {
+      const to::Setting baseline = to::preset_setting(*s.study, *s.baseline);
+      auto r = study::render_alternating(device, s.scene, *s.study, *u.setting, baseline, s.options, a.frames, cpu_adapter);
+      if (!r) return failed(r.error());
+      record(r->setting.row, r->setting.warnings);
+      result["baseline"] = baseline.label;
+      result["baseline_frame_ms"] = r->baseline_frame_ms;
+      result["cost_ratio"] = r->cost_ratio;
+      log::info(weft::format("{}: frame {:.1f} ms, {:.3f}x the {}", u.setting->label, r->setting.row.frame_ms, r->cost_ratio,
+                             baseline.label));
+      image = std::move(r->setting.image);
+    }
+    // The image first, the measurements last: a unit is done once both are there.
+    if (auto ok = image::save_png(png, image); !ok) return failed(ok.error());
+    const std::string text = result.dump(2) + "\n";
+    if (auto ok = write_file_atomically(meta, {std::as_bytes(std::span(text))}, "task result"); !ok) return failed(ok.error());
   }
-  // The image first, the measurements last: the task is done once both are there.
-  if (auto ok = image::save_png(png, image); !ok) return failed(ok.error());
-  const std::string text = result.dump(2) + "\n";
-  if (auto ok = write_file_atomically(meta, {std::as_bytes(std::span(text))}, "task result"); !ok) return failed(ok.error());
   return 0;
 }
 
@@ -380,7 +426,8 @@ int run_reduce(const Args& a, const Study& s) {
     out.row.process_cpu_ms = number("process_cpu_ms");
     out.row.wall_ms = number("wall_ms");
     out.row.cold_frame_ms = number("cold_frame_ms");
-    out.row.cost_ratio = number("cost_ratio");
+    out.row.cost_ratio = meta.contains("cost_ratio") && meta["cost_ratio"].is_number() ? meta["cost_ratio"].get<double>()
+                                                                                      : std::nan("");
     out.row.node = meta.value("node", "") + " / " + meta.value("adapter", "");
     nodes.insert(out.row.node);
     clocks.insert(meta.value("frame_clock", ""));
@@ -392,12 +439,15 @@ int run_reduce(const Args& a, const Study& s) {
   if (!white) return failed(white.error());
   std::string device = *nodes.begin(), clock = *clocks.begin();
   // Absolute times only where every task ran on one node type; otherwise the cost is the ratio.
-  if (nodes.size() > 1 || clocks.size() > 1) {
+  const bool ratios = std::all_of(rendered.begin(), rendered.end(), [](const Rendered& r) { return !std::isnan(r.row.cost_ratio); });
+  if ((nodes.size() > 1 || clocks.size() > 1) && ratios) {
     for (auto& r : rendered) r.row.frame_ms = r.row.cost_ratio;
     device = weft::format("{} nodes", nodes.size());
     clock = "ratio to the medium preset rendered alternately in the same task (not ms: the tasks ran on different nodes)";
-  } else {
-    clock += "; cost ratio: to the medium preset rendered alternately in the same task";
+  } else if (nodes.size() > 1 || clocks.size() > 1) {
+    device = weft::format("{} nodes: these absolute times are not comparable (--baseline none)", nodes.size());
+  } else if (ratios) {
+    clock += weft::format("; cost ratio: to the {} preset rendered alternately in the same task", a.baseline);
   }
   return write_reports(a, s, rendered, black->first, white->first, device, clock);
 }
@@ -464,6 +514,14 @@ Command add_tradeoff(CLI::App& app) {
       ->type_name("DIR");
   sub->add_option("--cache", a->cache, "The cache folder of the tasks' outputs (default: $WEFT_CACHE_DIR, else ~/.cache/weft/farm)")
       ->type_name("DIR");
+  sub->add_option("--baseline", a->baseline,
+                  "Farm tasks: the preset each setting is rendered alternately with, for its cost ratio (comparable across "
+                  "nodes), or none")
+      ->capture_default_str();
+  sub->add_option("--batch", a->batch,
+                  "Farm tasks: settings per task (each process pays its start, scene load and device once per task)")
+      ->check(CLI::Range(1u, 100000u))
+      ->capture_default_str();
   add_farm_options(*sub, a->farm);
   return [a] { return run(*a); };
 }
