@@ -81,7 +81,7 @@ struct TaskRun {
 Result<TaskRun> run_task(const TaskList& list, std::size_t index);
 
 // The local runner: every task not done, at most `jobs` at once, in list order. Progress is
-// logged; returns the indices of the tasks that failed (their logs say why).
+// logged; returns the indices of the tasks that failed, in list order (their logs say why).
 struct LocalRun {
   std::size_t ran = 0, skipped = 0;
   std::vector<std::size_t> failed;
@@ -109,9 +109,24 @@ struct StudySpec {
   std::vector<std::string> values, cross;  // "KNOB=V1,V2" as `weft tradeoff --values/--cross` take them
   std::filesystem::path out;
 };
+// A bake of any registered feature (`weft bake NAME ARGS -o OUTPUT`):
+//   "bakes": [{"bake": "btf", "args": ["--synthetic", "4x4", "--weave", "twill"], "output": "lib/twill.wbtf"}]
+// The task writes CACHE/bake/<id><extension of output>; the reduce step places it at `output`.
+// Arguments naming files that exist (relative to the spec's folder) are made absolute, and
+// their bytes are part of the id.
+struct BakeSpec {
+  std::string json_path;          // "$.bakes[0]"
+  std::string bake;               // the `weft bake` subcommand
+  std::vector<std::string> args;  // without -o
+  std::filesystem::path output;   // absolute
+  std::string id;                 // content hash of the bake, its arguments and the files they name
+};
+struct SweepSpec {
+  std::vector<StudySpec> studies;
+  std::vector<BakeSpec> bakes;
+};
 // Errors: one Parse error naming every problem's JSON path, "spec.json: $.studies[0].values.layerz: ...".
-Result<std::vector<StudySpec>> parse_sweep_spec(std::string_view text, std::string_view source,
-                                                const std::filesystem::path& base_dir);
-Result<std::vector<StudySpec>> read_sweep_spec(const std::filesystem::path& path);
+Result<SweepSpec> parse_sweep_spec(std::string_view text, std::string_view source, const std::filesystem::path& base_dir);
+Result<SweepSpec> read_sweep_spec(const std::filesystem::path& path);
 
 }  // namespace weft::farm

@@ -2,6 +2,7 @@
 // and the local runner (`--farm local -j N`), which share start_task, so a task behaves the
 // same under both: stale temporaries removed, output appended to CACHE/logs/<id>.log.
 module;
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <csignal>
@@ -157,6 +158,7 @@ Result<LocalRun> run_local(const TaskList& list, unsigned jobs) {
                              elapsed / double(finished) * double(total - finished)));
     }
   }
+  std::sort(run.failed.begin(), run.failed.end());  // in list order, however they finished
   return run;
 }
 

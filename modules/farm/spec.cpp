@@ -2,6 +2,7 @@
 // crossed) checked against the feature registry's knob tables before anything runs. Every
 // problem is collected and reported at once, each at its JSON path.
 module;
+#include <algorithm>
 #include <cmath>
 #include <expected>
 #include <filesystem>
@@ -13,6 +14,7 @@ module;
 module weft.farm;
 import weft.core;
 import weft.tradeoff;
+import weft.feature;
 
 namespace weft::farm {
 
@@ -75,10 +77,97 @@ std::vector<std::string> knob_lists(const tradeoff::Study& study, const json& no
   return out;
 }
 
+// Hashes a file's bytes, or a folder's files (names, then bytes) in name order.
+void hash_input(Hasher& h, const std::filesystem::path& path) {
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(path, ec)) {
+    if (auto bytes = read_input_file(path, "bake input")) h.bytes(bytes->data(), bytes->size());
+    return;
+  }
+  std::vector<std::filesystem::path> files;
+  for (std::filesystem::recursive_directory_iterator it(path, ec), end; !ec && it != end; it.increment(ec))
+    if (it->is_regular_file(ec)) files.push_back(it->path());
+  std::sort(files.begin(), files.end());
+  for (const auto& f : files) {
+    h.str(std::filesystem::relative(f, path, ec).string());
+    hash_input(h, f);
+  }
+}
+
+void read_bakes(const json& node, const std::filesystem::path& base_dir, Problems& problems, std::vector<BakeSpec>& out) {
+  if (!node.is_array() || node.empty()) {
+    problems.add("$.bakes", "expected a non-empty array of bakes");
+    return;
+  }
+  std::string known;
+  std::set<std::string> names;
+  for (const FeatureDescriptor* f : feature_registry().all())
+    for (const BakeCommand& b : f->bakes)
+      if (names.insert(b.name).second) known += (known.empty() ? "" : ", ") + b.name;
+  std::set<std::string> outputs;
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    const std::string at = weft::format("$.bakes[{}]", i);
+    const json& b = node[i];
+    if (!b.is_object()) {
+      problems.add(at, "expected an object with \"bake\", \"args\" and \"output\"");
+      continue;
+    }
+    for (const auto& [key, value] : b.items())
+      if (key != "bake" && key != "args" && key != "output") problems.add(at + "." + key, "unknown field (known: bake, args, output)");
+    BakeSpec spec;
+    spec.json_path = at;
+    if (!b.contains("bake") || !b["bake"].is_string() || !names.contains(b["bake"].get<std::string>()))
+      problems.add(at + ".bake", weft::format("expected one of the registered bakes ({}), got {}", known,
+                                              b.contains("bake") ? b["bake"].dump() : "nothing"));
+    else
+      spec.bake = b["bake"].get<std::string>();
+    Hasher h;
+    h.str("weft bake task 1").str(spec.bake);
+    if (b.contains("args")) {
+      const json& args = b["args"];
+      if (!args.is_array()) {
+        problems.add(at + ".args", "expected an array of strings (the bake's options, `weft bake NAME --help`)");
+      } else {
+        for (std::size_t k = 0; k < args.size(); ++k) {
+          const std::string p = weft::format("{}.args[{}]", at, k);
+          if (!args[k].is_string()) {
+            problems.add(p, "expected a string");
+            continue;
+          }
+          std::string arg = args[k].get<std::string>();
+          if (arg == "-o" || arg == "--output" || arg.starts_with("--output=") || (arg.starts_with("-o") && arg.size() > 2 && arg[2] != '-')) {
+            problems.add(p, "the farm names the bake's output: give it as \"output\"");
+            continue;
+          }
+          h.str(arg);
+          std::error_code ec;
+          const std::filesystem::path file = std::filesystem::path(arg).is_absolute() ? std::filesystem::path(arg) : base_dir / arg;
+          if (!arg.empty() && arg[0] != '-' && std::filesystem::exists(file, ec)) {
+            arg = std::filesystem::absolute(file, ec).string();
+            hash_input(h, file);
+          }
+          spec.args.push_back(std::move(arg));
+        }
+      }
+    }
+    if (!b.contains("output") || !b["output"].is_string() || b["output"].get<std::string>().empty() ||
+        !std::filesystem::path(b["output"].get<std::string>()).has_extension()) {
+      problems.add(at + ".output", "expected the baked file's path, with its extension (.wbtf, .wssdf, .exr)");
+    } else {
+      const std::filesystem::path o = b["output"].get<std::string>();
+      spec.output = std::filesystem::absolute(o.is_absolute() ? o : base_dir / o);
+      if (!outputs.insert(spec.output.lexically_normal().string()).second)
+        problems.add(at + ".output", weft::format("'{}' is the output of an earlier bake too", o.string()));
+      h.str(spec.output.extension().string());
+    }
+    spec.id = hex64(h.digest());
+    out.push_back(std::move(spec));
+  }
+}
+
 }  // namespace
 
-Result<std::vector<StudySpec>> parse_sweep_spec(std::string_view text, std::string_view source,
-                                                const std::filesystem::path& base_dir) {
+Result<SweepSpec> parse_sweep_spec(std::string_view text, std::string_view source, const std::filesystem::path& base_dir) {
   json doc;
   try {
     doc = json::parse(text);
@@ -86,12 +175,16 @@ Result<std::vector<StudySpec>> parse_sweep_spec(std::string_view text, std::stri
     return fail(ErrorKind::Parse, "{}: not JSON ({})", source, e.what());
   }
   Problems problems;
-  std::vector<StudySpec> out;
-  if (!doc.is_object()) return fail(ErrorKind::Parse, "{}: $: expected an object with \"version\" and \"studies\"", source);
+  SweepSpec sweep;
+  std::vector<StudySpec>& out = sweep.studies;
+  if (!doc.is_object()) return fail(ErrorKind::Parse, "{}: $: expected an object with \"version\" and \"studies\" or \"bakes\"", source);
   for (const auto& [key, value] : doc.items())
-    if (key != "version" && key != "studies") problems.add("$." + key, "unknown field (known: version, studies)");
+    if (key != "version" && key != "studies" && key != "bakes") problems.add("$." + key, "unknown field (known: version, studies, bakes)");
   if (!doc.contains("version") || doc["version"] != 1) problems.add("$.version", "expected 1");
-  if (!doc.contains("studies") || !doc["studies"].is_array() || doc["studies"].empty()) {
+  if (doc.contains("bakes")) read_bakes(doc["bakes"], base_dir, problems, sweep.bakes);
+  if (!doc.contains("studies") && doc.contains("bakes")) {
+    // a bake-only spec
+  } else if (!doc.contains("studies") || !doc["studies"].is_array() || doc["studies"].empty()) {
     problems.add("$.studies", "expected a non-empty array of studies");
   } else {
     const json& studies = doc["studies"];
@@ -192,10 +285,10 @@ Result<std::vector<StudySpec>> parse_sweep_spec(std::string_view text, std::stri
     for (const auto& l : problems.lines) message += (message.empty() ? "" : "; ") + l;
     return fail(ErrorKind::Parse, "{}: {}", source, message);
   }
-  return out;
+  return sweep;
 }
 
-Result<std::vector<StudySpec>> read_sweep_spec(const std::filesystem::path& path) {
+Result<SweepSpec> read_sweep_spec(const std::filesystem::path& path) {
   auto bytes = read_input_file(path, "sweep spec");
   if (!bytes) return std::unexpected(bytes.error());
   return parse_sweep_spec(std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()), path.string(),

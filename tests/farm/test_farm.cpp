@@ -79,10 +79,11 @@ TEST_CASE("sweep spec: scenes x knob values listed and crossed; every typo and b
   TempDir dir;
   std::ofstream(dir.path / "a.json") << "{}";
   std::ofstream(dir.path / "b.json") << "{}";
-  auto specs = weft::farm::parse_sweep_spec(R"({"version": 1, "studies": [{"scenes": ["a.json", "b.json"], "feature": "fur",
+  auto sweep = weft::farm::parse_sweep_spec(R"({"version": 1, "studies": [{"scenes": ["a.json", "b.json"], "feature": "fur",
       "size": "32x24", "frames": 2, "values": {"layers": [1, 2.0]}, "cross": {"layers": [4, 8], "fins": [true, false]},
       "out": "out/{feature}-{scene}"}]})", "spec.json", dir.path);
-  REQUIRE_MESSAGE(specs, specs.error().what());
+  REQUIRE_MESSAGE(sweep, sweep.error().what());
+  const auto* specs = &sweep->studies;
   REQUIRE(specs->size() == 2);
   const auto& s = (*specs)[1];
   CHECK(s.feature == "shell_fur");  // the registry's name for the alias
@@ -120,6 +121,42 @@ TEST_CASE("sweep spec: scenes x knob values listed and crossed; every typo and b
     auto r = weft::farm::parse_sweep_spec(c.text, "spec.json", dir.path);
     REQUIRE_FALSE_MESSAGE(r, c.text);
     CHECK(contains(r.error().message, "spec.json"));
+    for (const auto& e : c.expect) CHECK_MESSAGE(contains(r.error().message, e), r.error().message, " lacks ", e);
+  }
+}
+
+TEST_CASE("sweep spec: bakes of any registered feature, inputs named by content; bad bakes named at their JSON path") {
+  TempDir dir;
+  std::ofstream(dir.path / "in.btfraw") << "bytes";
+  const auto parse = [&](const std::string& bakes) {
+    return weft::farm::parse_sweep_spec(R"({"version": 1, "bakes": )" + bakes + "}", "spec.json", dir.path);
+  };
+  auto a = parse(R"([{"bake": "btf", "args": ["in.btfraw", "--epochs", "1"], "output": "lib/a.wbtf"},
+                     {"bake": "btf", "args": ["--synthetic", "4x4"], "output": "lib/b.wbtf"}])");
+  REQUIRE_MESSAGE(a, a.error().what());
+  REQUIRE(a->bakes.size() == 2);
+  CHECK(a->studies.empty());
+  CHECK(a->bakes[0].args == std::vector<std::string>{(dir.path / "in.btfraw").string(), "--epochs", "1"});
+  CHECK(a->bakes[0].output == dir.path / "lib/a.wbtf");
+  CHECK(a->bakes[0].id != a->bakes[1].id);
+  // the id follows the input's bytes
+  std::ofstream(dir.path / "in.btfraw") << "other bytes";
+  auto b = parse(R"([{"bake": "btf", "args": ["in.btfraw", "--epochs", "1"], "output": "lib/a.wbtf"}])");
+  REQUIRE(b);
+  CHECK(b->bakes[0].id != a->bakes[0].id);
+  struct Case {
+    std::string bakes;
+    std::vector<std::string> expect;
+  };
+  for (const auto& c : {Case{R"([{"bake": "btff", "output": "x.wbtf"}])", {"$.bakes[0].bake", "btf", "skin-lut"}},
+                        Case{R"([{"bake": "btf", "args": ["-o", "y.wbtf"], "output": "x.wbtf"}])", {"$.bakes[0].args[0]", "\"output\""}},
+                        Case{R"([{"bake": "btf", "args": [3], "output": "x.wbtf"}])", {"$.bakes[0].args[0]"}},
+                        Case{R"([{"bake": "btf", "output": "x"}])", {"$.bakes[0].output", "extension"}},
+                        Case{R"([{"bake": "btf", "output": "x.wbtf"}, {"bake": "btf", "output": "x.wbtf"}])", {"$.bakes[1].output", "earlier"}},
+                        Case{R"([{"bake": "btf", "output": "x.wbtf", "outptu": 1}])", {"$.bakes[0].outptu"}},
+                        Case{R"([])", {"$.bakes"}}}) {
+    auto r = parse(c.bakes);
+    REQUIRE_FALSE_MESSAGE(r, c.bakes);
     for (const auto& e : c.expect) CHECK_MESSAGE(contains(r.error().message, e), r.error().message, " lacks ", e);
   }
 }

@@ -223,8 +223,34 @@ TEST_CASE("weft farm plan: a sweep spec becomes a task list; typos are named at 
   CHECK_FALSE(fs::exists(f.cache / "farm"));
 }
 
+TEST_CASE("weft farm run: a two-material bake as tasks, placed by the reduce step; done bakes skipped") {
+  Fixture f;
+  std::ofstream(f.dir / "bakes.json") << R"({"version": 1, "bakes": [
+    {"bake": "btf", "args": ["--synthetic", "4x4", "--weave", "plain", "--clusters", "4", "--epochs", "1", "--directions", "64"], "output": "lib/plain.wbtf"},
+    {"bake": "btf", "args": ["--synthetic", "4x4", "--weave", "twill", "--clusters", "4", "--epochs", "1", "--directions", "64"], "output": "lib/twill.wbtf"}]})";
+  const std::string run = cli + " farm run " + (f.dir / "bakes.json").string() + " --farm local -j 2 --cache " + f.cache.string();
+  const auto r = run_command(run);
+  REQUIRE_MESSAGE(r.exit_code == 0, r.output);
+  CHECK(contains(r.output, "placed " + (f.dir / "lib/plain.wbtf").string()));
+  CHECK(fs::file_size(f.dir / "lib/plain.wbtf") > 1000);
+  CHECK(fs::file_size(f.dir / "lib/twill.wbtf") > 1000);
+  CHECK(read(f.dir / "lib/plain.wbtf") != read(f.dir / "lib/twill.wbtf"));
+  fs::remove(f.dir / "lib/twill.wbtf");
+  const auto again = run_command(run);
+  REQUIRE_MESSAGE(again.exit_code == 0, again.output);
+  CHECK(contains(again.output, "2 of 2 tasks already in the cache"));
+  CHECK(fs::file_size(f.dir / "lib/twill.wbtf") > 1000);
+  // a bake that fails is named with its log's last line, and nothing is placed
+  std::ofstream(f.dir / "bad.json") << R"({"version": 1, "bakes": [{"bake": "btf", "args": ["--synthetic", "4x4", "--weave", "satin"], "output": "lib/satin.wbtf"}]})";
+  const auto bad = run_command(cli + " farm run " + (f.dir / "bad.json").string() + " --farm local --cache " + f.cache.string());
+  CHECK(bad.exit_code != 0);
+  CHECK_MESSAGE(contains(bad.output, "satin"), bad.output);
+  CHECK(contains(bad.output, "nothing was reduced"));
+  CHECK_FALSE(fs::exists(f.dir / "lib/satin.wbtf"));
+}
+
 TEST_CASE("every weft farm subcommand answers --help without working") {
-  for (const char* sub : {"farm", "farm plan", "farm run", "farm task", "farm reduce", "farm status", "farm wait", "farm collect"}) {
+  for (const char* sub : {"farm", "farm plan", "farm run", "farm task", "farm reduce", "farm place", "farm status", "farm wait", "farm collect"}) {
     const auto r = run_command(cli + " " + sub + " --help");
     CHECK_MESSAGE(r.exit_code == 0, sub << ": " << r.output);
     CHECK_MESSAGE(contains(r.output, "Usage"), sub << ": " << r.output);

@@ -130,4 +130,17 @@ e = lambda p: {r["setting"]: [r[k] for k in keys] for r in csv.DictReader(open(p
 assert e(sys.argv[1]) == e(sys.argv[2])
 print("--batch 6 --wait: errors identical")
 PY
+# a two-material bake (synthetic plain and twill BTFs) as a job array, placed by the reduce job
+cat >"$work/bakes.json" <<'JSON'
+{"version": 1, "bakes": [
+  {"bake": "btf", "args": ["--synthetic", "4x4", "--weave", "plain", "--clusters", "4", "--epochs", "1", "--directions", "64"], "output": "lib/plain.wbtf"},
+  {"bake": "btf", "args": ["--synthetic", "4x4", "--weave", "twill", "--clusters", "4", "--epochs", "1", "--directions", "64"], "output": "lib/twill.wbtf"}]}
+JSON
+"$weft" farm run "$work/bakes.json" --farm slurm --wait --cache "$work/cache-bake" >"$work/bake.log" 2>&1 || fail "bake array: $(tail -3 "$work/bake.log")"
+grep -q "submitted array job [0-9]* (2 tasks)" "$work/bake.log" || fail "expected 2 bake tasks: $(head -3 "$work/bake.log")"
+for m in plain twill; do
+  [ "$(head -c 8 "$work/lib/$m.wbtf" | tr -d '\0')" != "" ] || fail "lib/$m.wbtf was not placed"
+done
+cmp -s "$work/lib/plain.wbtf" "$work/lib/twill.wbtf" && fail "the two materials baked the same file"
+echo "two-material bake: both .wbtf placed by the reduce job"
 echo "test_farm_slurm: passed"

@@ -4,6 +4,7 @@
 //   weft farm run LIST|SPEC --farm slurm [...]     one job array + a reduce job (afterok)
 //   weft farm task LIST I                          task I (what an array task runs)
 //   weft farm reduce LIST                          the reduce steps, once every task is done
+//   weft farm place FROM TO                        a bake's reduce step: its output placed atomically
 //   weft farm status|wait|collect JOB              a submitted Slurm job
 // Commands that farm their own work (`weft tradeoff --farm`) come through run_farm too, so
 // every runner has one semantics. Nothing here names a feature: tasks are command lines.
@@ -127,16 +128,31 @@ Result<farm::TaskList> load(const FarmArgs& a) {
   auto bytes = read_input_file(a.input, "task list or sweep spec");
   if (!bytes) return std::unexpected(bytes.error());
   const auto doc = nlohmann::json::parse(bytes->begin(), bytes->end(), nullptr, false);
-  if (!doc.is_discarded() && doc.is_object() && doc.contains("studies")) {
+  if (!doc.is_discarded() && doc.is_object() && (doc.contains("studies") || doc.contains("bakes"))) {
     auto specs = farm::read_sweep_spec(a.input);
     if (!specs) return std::unexpected(specs.error());
     const auto cache = cache_of(a);
     if (cache.empty()) return fail(ErrorKind::InvalidArgument, "no cache folder: give --cache DIR or set WEFT_CACHE_DIR");
     farm::TaskList all;
-    for (const auto& spec : *specs) {
+    all.cache = cache;
+    for (const auto& spec : specs->studies) {
       auto list = tradeoff_tasks_for(spec, cache);
       if (!list) return with_context(a.input, list.error());
       farm::append(all, *list);
+    }
+    // A bake is `weft bake NAME ARGS -o CACHE/bake/<id><ext>`, placed at its output by the reduce.
+    for (const auto& b : specs->bakes) {
+      const std::string file = "bake/" + b.id + b.output.extension().string();
+      farm::Task task{.id = b.id, .label = "bake " + b.bake + " -> " + b.output.filename().string(), .command = {self_path(), "bake", b.bake}};
+      task.command.insert(task.command.end(), b.args.begin(), b.args.end());
+      task.command.insert(task.command.end(), {"-o", (cache / file).string()});
+      task.outputs = {file};
+      farm::TaskList one;
+      one.cache = cache;
+      one.what = "weft bake " + b.bake + " -o " + b.output.string();
+      one.tasks.push_back(std::move(task));
+      one.reduce.push_back({self_path(), "farm", "place", (cache / file).string(), b.output.string()});
+      farm::append(all, one);
     }
     return all;
   }
@@ -165,6 +181,9 @@ Command add_farm(CLI::App& app) {
   task->add_option("index", a->index, "The task's index (0 = the first; $SLURM_ARRAY_TASK_ID)")->required();
   auto* red = farm_cmd->add_subcommand("reduce", "Run a task list's reduce steps, once every task's output is in the cache");
   red->add_option("list", a->input, "The task list")->required();
+  auto* place = farm_cmd->add_subcommand("place", "Copy a task's output from the cache to where it belongs, atomically (a bake's reduce step)");
+  place->add_option("from", a->input, "The file in the cache")->required();
+  place->add_option("to", a->out, "Where it goes (folders made as needed)")->required();
   auto* status = farm_cmd->add_subcommand("status", "Say how far a submitted Slurm job has got");
   auto* wait = farm_cmd->add_subcommand("wait", "Wait for a submitted Slurm job and its reduce job; exit 0 when every task's output is there");
   auto* collect = farm_cmd->add_subcommand("collect", "Gather a submitted job's results: run its reduce steps here from the cache");
@@ -173,7 +192,7 @@ Command add_farm(CLI::App& app) {
     cache_option(sub);
   }
   wait->add_option("--timeout", a->timeout, "Give up after this many seconds (0: never)")->check(CLI::Range(0.0, 1e7));
-  return [a, plan, run, task, red, status, wait, collect]() -> int {
+  return [a, plan, run, task, red, place, status, wait, collect]() -> int {
     if (plan->parsed()) {
       auto list = load(*a);
       if (!list) return failed("weft farm plan", list.error());
@@ -216,6 +235,17 @@ Command add_farm(CLI::App& app) {
       auto list = farm::read_task_list(a->input);
       if (!list) return failed("weft farm reduce", list.error());
       return reduce(*list, "weft farm reduce");
+    }
+    if (place->parsed()) {
+      auto bytes = read_input_file(a->input, "task output");
+      if (!bytes) return failed("weft farm place", bytes.error());
+      const std::filesystem::path to = a->out;
+      std::error_code ec;
+      if (to.has_parent_path()) std::filesystem::create_directories(to.parent_path(), ec);
+      if (ec) return failed("weft farm place", {ErrorKind::Io, weft::format("cannot create '{}': {}", to.parent_path().string(), ec.message())});
+      if (auto ok = write_file_atomically(to, {std::as_bytes(std::span(*bytes))}, "baked file"); !ok) return failed("weft farm place", ok.error());
+      std::printf("placed %s (%zu bytes, from %s)\n", to.c_str(), bytes->size(), a->input.c_str());
+      return 0;
     }
     const auto cache = cache_of(*a);
     if (status->parsed()) return slurm_status(cache, a->job, false, nullptr, nullptr);
