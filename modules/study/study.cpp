@@ -3,6 +3,7 @@ module;
 #include <chrono>
 #include <ctime>
 #include <expected>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -74,6 +75,14 @@ Result<RenderedSetting> render_setting(gpu::Device& device, const scene::Scene& 
 Result<AlternatedSetting> render_alternating(gpu::Device& device, const scene::Scene& base, const tradeoff::Study& study,
                                              const tradeoff::Setting& setting, const tradeoff::Setting& baseline,
                                              const renderer::RenderOptions& defaults, unsigned frames, bool cpu_adapter) {
+  Baseline fresh{baseline, std::nullopt};
+  return render_alternating(device, base, study, setting, fresh, defaults, frames, cpu_adapter);
+}
+
+Result<AlternatedSetting> render_alternating(gpu::Device& device, const scene::Scene& base, const tradeoff::Study& study,
+                                             const tradeoff::Setting& setting, Baseline& kept,
+                                             const renderer::RenderOptions& defaults, unsigned frames, bool cpu_adapter) {
+  const tradeoff::Setting& baseline = kept.setting;
   scene::Scene scene = base, baseline_scene = base;
   if (auto ok = tradeoff::apply_setting(scene, study, setting); !ok) return std::unexpected(ok.error());
   if (auto ok = tradeoff::apply_setting(baseline_scene, study, baseline); !ok) return std::unexpected(ok.error());
@@ -89,8 +98,12 @@ Result<AlternatedSetting> render_alternating(gpu::Device& device, const scene::S
   AlternatedSetting out;
   out.setting.row.setting = setting;
   out.setting.row.cold_frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  auto rb = renderer::Renderer::create(device);
-  if (!rb) return std::unexpected(rb.error());
+  if (!kept.renderer) {
+    auto made = renderer::Renderer::create(device);
+    if (!made) return std::unexpected(made.error());
+    kept.renderer.emplace(std::move(*made));
+  }
+  renderer::Renderer* rb = &*kept.renderer;
   if (auto f = rb->render(baseline_scene, baseline_options); !f)
     return with_context(weft::format("baseline '{}'", baseline.label), f.error());
   std::vector<double> gpu, cpu, feature, process, baseline_cost, ratio;

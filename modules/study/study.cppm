@@ -5,6 +5,7 @@
 // Python module so both measure the same way.
 module;
 #include <expected>
+#include <optional>
 #include <string>
 #include <vector>
 export module weft.study;
@@ -41,6 +42,15 @@ struct AlternatedSetting {
 };
 Result<AlternatedSetting> render_alternating(gpu::Device& device, const scene::Scene& base, const tradeoff::Study& study,
                                              const tradeoff::Setting& setting, const tradeoff::Setting& baseline,
+                                             const renderer::RenderOptions& defaults, unsigned frames, bool cpu_adapter);
+// The baseline's renderer, kept from one setting to the next of a task with several (its
+// cold frame paid once per task, not per setting); made on first use.
+struct Baseline {
+  tradeoff::Setting setting;
+  std::optional<renderer::Renderer> renderer;
+};
+Result<AlternatedSetting> render_alternating(gpu::Device& device, const scene::Scene& base, const tradeoff::Study& study,
+                                             const tradeoff::Setting& setting, Baseline& baseline,
                                              const renderer::RenderOptions& defaults, unsigned frames, bool cpu_adapter);
 
 // The feature's objects drawn flat black (white: emissive white) in place of its material.

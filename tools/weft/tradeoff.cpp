@@ -335,6 +335,8 @@ int run_task(const Args& a, const Study& s) {
   std::filesystem::create_directories(cache / "tradeoff", ec);
   if (ec) return failed({ErrorKind::Io, weft::format("cannot create '{}': {}", (cache / "tradeoff").string(), ec.message())});
   std::unique_ptr<Device> dev;
+  std::optional<study::Baseline> baseline;  // one baseline renderer for every setting of the task
+  if (s.baseline) baseline.emplace(study::Baseline{to::preset_setting(*s.study, *s.baseline), std::nullopt});
   for (const Unit& u : units) {
     const auto png = cache / result_file(u.id, ".png"), meta = cache / result_file(u.id, ".json");
     if (std::filesystem::is_regular_file(png, ec) && std::filesystem::is_regular_file(meta, ec)) continue;
@@ -371,15 +373,14 @@ int run_task(const Args& a, const Study& s) {
       log::info(weft::format("{}: frame {:.1f} ms", u.setting->label, r->row.frame_ms));
       image = std::move(r->image);
     } else {
-      const to::Setting baseline = to::preset_setting(*s.study, *s.baseline);
-      auto r = study::render_alternating(device, s.scene, *s.study, *u.setting, baseline, s.options, a.frames, cpu_adapter);
+      auto r = study::render_alternating(device, s.scene, *s.study, *u.setting, *baseline, s.options, a.frames, cpu_adapter);
       if (!r) return failed(r.error());
       record(r->setting.row, r->setting.warnings);
-      result["baseline"] = baseline.label;
+      result["baseline"] = baseline->setting.label;
       result["baseline_frame_ms"] = r->baseline_frame_ms;
       result["cost_ratio"] = r->cost_ratio;
       log::info(weft::format("{}: frame {:.1f} ms, {:.3f}x the {}", u.setting->label, r->setting.row.frame_ms, r->cost_ratio,
-                             baseline.label));
+                             baseline->setting.label));
       image = std::move(r->setting.image);
     }
     // The image first, the measurements last: a unit is done once both are there.
