@@ -329,8 +329,14 @@ int slurm_wait(const std::filesystem::path& cache, const std::string& id, double
                     state.c_str(), (cache / "logs" / ("slurm-reduce-" + record->reduce + ".out")).c_str());
         return 0;
       }
-      std::fprintf(stderr, "weft farm wait: reduce job %s ended %s; its log: %s\n", record->reduce.c_str(), reduce.c_str(),
-                   (cache / "logs" / ("slurm-reduce-" + record->reduce + ".out")).c_str());
+      std::string missing_text;
+      if (auto list = farm::read_task_list(record->list)) {
+        const auto missing = farm::missing_tasks(*list);
+        if (!missing.empty())
+          missing_text = weft::format("; {} tasks have no output: {}", missing.size(), farm::describe_missing(*list, missing));
+      }
+      std::fprintf(stderr, "weft farm wait: reduce job %s ended %s; its log: %s%s\n", record->reduce.c_str(), reduce.c_str(),
+                   (cache / "logs" / ("slurm-reduce-" + record->reduce + ".out")).c_str(), missing_text.c_str());
       return 1;
     }
     if (timeout_s > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > timeout_s) {
