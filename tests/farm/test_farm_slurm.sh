@@ -61,14 +61,19 @@ running=$(running_task)
 [ -n "$running" ] || fail "no array task ever ran"
 scontrol requeue "${array}_${running}" || fail "scontrol requeue ${array}_${running} refused"
 echo "requeued running task $running"
-cancelled=$(running_task "$running")
-[ -n "$cancelled" ] || fail "no second array task ran"
-scancel "${array}_${cancelled}" || fail "scancel ${array}_${cancelled} refused"
+# (a task may finish between being seen running and the scancel: then take another)
 state=""
-for _ in $(seq 100); do
-  state=$(scontrol show job "${array}_${cancelled}" -o 2>/dev/null | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p')
+for attempt in 1 2 3 4 5; do
+  cancelled=$(running_task "$running")
+  [ -n "$cancelled" ] || fail "no second array task ran"
+  scancel "${array}_${cancelled}" || fail "scancel ${array}_${cancelled} refused"
+  for _ in $(seq 100); do
+    state=$(scontrol show job "${array}_${cancelled}" -o 2>/dev/null | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p')
+    [ "$state" = CANCELLED ] || [ "$state" = COMPLETED ] && break
+    sleep 0.1
+  done
   [ "$state" = CANCELLED ] && break
-  sleep 0.1
+  echo "task $cancelled ended $state before the scancel reached it; trying another"
 done
 [ "$state" = CANCELLED ] || fail "task $cancelled is '$state' after scancel"
 scontrol requeue "${array}_${cancelled}" || fail "scontrol requeue of the cancelled task $cancelled refused"
