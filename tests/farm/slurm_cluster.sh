@@ -13,6 +13,14 @@ dir="${2:?usage: slurm_cluster.sh start|stop DIR}"
 cannot() { echo "slurm_cluster: cannot start a one-node cluster: $*" >&2; exit 3; }
 
 stop() {
+  # cancel what still runs, so no job step outlives its cluster
+  if [ -f "$dir/slurm.conf" ] && [ -f "$dir/slurmctld.pid" ]; then
+    SLURM_CONF="$dir/slurm.conf" timeout 10 scancel --quiet --user="$(id -un)" >/dev/null 2>&1 || true
+    for _ in $(seq 30); do
+      [ -z "$(SLURM_CONF="$dir/slurm.conf" timeout 5 squeue -h -t R,CG 2>/dev/null)" ] && break
+      sleep 0.2
+    done
+  fi
   for name in slurmd slurmctld munged; do
     local pidfile="$dir/$name.pid"
     [ -f "$pidfile" ] || continue
@@ -23,6 +31,11 @@ stop() {
       kill -9 "$pid" 2>/dev/null || true
     fi
     rm -f "$pidfile"
+  done
+  # job steps of this cluster left by a slurmd that was killed mid-job (found by their SLURM_CONF)
+  local conf="SLURM_CONF=$dir/slurm.conf"
+  for p in $(pgrep -x slurmstepd 2>/dev/null || true); do
+    if tr '\0' '\n' <"/proc/$p/environ" 2>/dev/null | grep -qx "$conf"; then kill -9 "$p" 2>/dev/null || true; fi
   done
 }
 
@@ -58,7 +71,7 @@ ctld_port=$(free_port)
 slurmd_port=$(free_port)
 cat >"$dir/slurm.conf" <<CONF
 ClusterName=weft-test
-SlurmctldHost=$host
+SlurmctldHost=$host(127.0.0.1)
 SlurmUser=$user
 SlurmdUser=$user
 SlurmctldPort=$ctld_port
@@ -88,7 +101,7 @@ InactiveLimit=0
 MinJobAge=600
 KillWait=5
 Waittime=0
-NodeName=$host CPUs=$cpus RealMemory=$mem State=UNKNOWN
+NodeName=$host NodeAddr=127.0.0.1 CPUs=$cpus RealMemory=$mem State=UNKNOWN
 PartitionName=test Nodes=$host Default=YES MaxTime=INFINITE State=UP OverSubscribe=NO
 CONF
 export SLURM_CONF="$dir/slurm.conf"
