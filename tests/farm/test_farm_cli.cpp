@@ -175,6 +175,28 @@ TEST_CASE("weft tradeoff --farm local -j 2: the serial run's errors byte for byt
   CHECK(errors(read(f.dir / "farm3/tradeoff.csv")) == a);
 }
 
+TEST_CASE("weft tradeoff --extremes: the stability sweep's settings as tasks, the serial run's errors") {
+  Fixture f;
+  const std::string study = cli + " tradeoff " + f.scene.string() + " --feature fur --frames 1 --extremes --base layers=4";
+  const auto serial = run_command(study + " -o " + (f.dir / "serial").string());
+  REQUIRE_MESSAGE(serial.exit_code == 0, serial.output);
+  const auto farmed = run_command(study + " --farm local -j 2 --batch 3 --cache " + f.cache.string() + " -o " + (f.dir / "farm").string());
+  REQUIRE_MESSAGE(farmed.exit_code == 0, farmed.output);
+  const auto a = errors(read(f.dir / "serial/tradeoff.csv"));
+  CHECK(a.count("layers=1") == 1);    // the knob's minimum
+  CHECK(a.count("layers=256") == 1);  // and maximum
+  CHECK(a == errors(read(f.dir / "farm/tradeoff.csv")));
+  for (const auto& [args, expect] : {std::pair{" --values layers=1", "give --base"}, std::pair{" --base layers=1,2", "one value"},
+                                     std::pair{" --base layerz=1", "'layerz'"}}) {
+    const auto r = run_command(study + args);
+    CHECK(r.exit_code != 0);
+    CHECK_MESSAGE(contains(r.output, expect), args << " -> " << r.output);
+  }
+  const auto no_extremes = run_command(cli + " tradeoff " + f.scene.string() + " --feature fur --base layers=4");
+  CHECK(no_extremes.exit_code != 0);
+  CHECK(contains(no_extremes.output, "--base is for --extremes"));
+}
+
 TEST_CASE("weft farm plan: a sweep spec becomes a task list; typos are named at their JSON path before anything runs") {
   Fixture f;
   std::ofstream(f.dir / "spec.json") << R"({"version": 1, "studies": [{"scene": "fur.json", "feature": "fur", "frames": 1,

@@ -53,6 +53,8 @@ struct Args {
   float exposure = 1.0f;
   std::vector<std::string> values, cross;
   bool list = false;
+  bool extremes = false;           // the stability sweep's settings instead of the trade-off plan
+  std::vector<std::string> base;   // --base KNOB=V: under --extremes, values every extreme starts from
   unsigned batch = 1;  // settings per farm task
   std::string baseline = "medium";  // farm tasks: the preset rendered alternately for the cost ratio, or "none"
   // the farm
@@ -134,7 +136,25 @@ Result<Study> prepare(const Args& a) {
     return fail(ErrorKind::InvalidArgument, "'{}' has no \"{}\" material: nothing for the {} study to sweep", a.scene_path,
                 (*study)->material, (*study)->feature);
   s.out = a.out.empty() ? "tradeoff-" + (*study)->feature : a.out;
-  s.plan = to::plan_sweep(**study, overrides, crossed);
+  if (a.extremes) {
+    if (!a.values.empty() || !a.cross.empty())
+      return fail(ErrorKind::InvalidArgument, "--extremes renders each knob's minimum and maximum: give --base, not --values or --cross");
+    json base = json::object();
+    for (const auto& text : a.base) {
+      auto v = to::parse_knob_values(**study, text);
+      if (!v) return with_context("--base", v.error());
+      if (v->values.size() != 1) return fail(ErrorKind::InvalidArgument, "--base {}: one value per knob", text);
+      base[v->knob->name] = v->values.front();
+    }
+    // each setting once (an extreme may equal the base)
+    std::set<std::string> seen;
+    for (auto& setting : to::extreme_settings(**study, base))
+      if (seen.insert(weft::format("{}|{}|{}", int(setting.quality), setting.strip_knobs, setting.values.dump())).second)
+        s.plan.push_back(std::move(setting));
+  } else {
+    if (!a.base.empty()) return fail(ErrorKind::InvalidArgument, "--base is for --extremes");
+    s.plan = to::plan_sweep(**study, overrides, crossed);
+  }
   if (a.baseline != "none") {
     auto q = quality_from_string(a.baseline);
     if (!q) return fail(ErrorKind::InvalidArgument, "--baseline '{}': expected low, medium, high, reference or none", a.baseline);
@@ -164,6 +184,8 @@ std::vector<std::string> base_command(const Args& a) {
   if (a.exposure != 1.0f) c.insert(c.end(), {"--exposure", weft::format("{}", a.exposure)});
   if (a.baseline != "medium") c.insert(c.end(), {"--baseline", a.baseline});
   if (a.batch != 1) c.insert(c.end(), {"--batch", std::to_string(a.batch)});
+  if (a.extremes) c.push_back("--extremes");
+  for (const auto& v : a.base) c.insert(c.end(), {"--base", v});
   for (const auto& v : a.values) c.insert(c.end(), {"--values", v});
   for (const auto& v : a.cross) c.insert(c.end(), {"--cross", v});
   return c;
@@ -264,6 +286,8 @@ int write_reports(const Args& a, const Study& s, std::vector<Rendered>& rendered
                               a.exposure != 1.0f ? weft::format(" --exposure {}", a.exposure) : "");
   for (const auto& v : a.values) info.command += " --values " + v;
   for (const auto& v : a.cross) info.command += " --cross " + v;
+  if (a.extremes) info.command += " --extremes";
+  for (const auto& v : a.base) info.command += " --base " + v;
   info.mask_note = weft::format("{} of {} pixels (the feature's objects, and every pixel any setting changes)",
                                 mask->count(), std::size_t(reference.width) * reference.height);
   const std::pair<const char*, std::string> files[] = {{"tradeoff.csv", to::csv(rows, info)},
@@ -508,6 +532,9 @@ Command add_tradeoff(CLI::App& app) {
   sub->add_option("--values", a->values, "Replace a knob's sweep: KNOB=V1,V2,... (repeatable)");
   sub->add_option("--cross", a->cross, "Also render every combination of these knobs' values: KNOB=V1,V2,... (repeatable)");
   sub->add_flag("--list", a->list, "Print each feature's knobs and reference, and exit");
+  sub->add_flag("--extremes", a->extremes,
+                "Render the stability sweep's settings instead: each knob's minimum and maximum, one at a time, and the reference");
+  sub->add_option("--base", a->base, "--extremes: a knob value every extreme starts from, KNOB=V (repeatable)");
   sub->add_option("--tasks", a->tasks_file, "Write the study as a task list (JSON, docs/farm.md) to this file and exit")
       ->type_name("FILE");
   sub->add_option("--task", a->task, "Run one task of the study (its id from the task list) into --cache")->type_name("ID");
