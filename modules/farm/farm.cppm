@@ -62,7 +62,8 @@ bool is_done(const TaskList& list, const Task& task);
 std::vector<std::size_t> missing_tasks(const TaskList& list);
 // The last non-empty line of a task's log ("no log": it never started), for messages.
 std::string last_log_line(const TaskList& list, const Task& task);
-// One line per missing task: "'layers=8' (task 0123abcd..., log CACHE/logs/0123.log: <last line>)".
+// The missing tasks on one line, the first 8 named, the rest counted:
+// "'layers=8' (task 0123abcd..., log CACHE/logs/0123.log: <last line>); ...; and 18 more (...)".
 std::string describe_missing(const TaskList& list, const std::vector<std::size_t>& missing);
 
 // ---- running tasks -------------------------------------------------------------------------

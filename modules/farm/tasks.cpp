@@ -180,8 +180,13 @@ std::string last_log_line(const TaskList& list, const Task& task) {
 
 std::string describe_missing(const TaskList& list, const std::vector<std::size_t>& missing) {
   std::string out;
-  for (std::size_t i : missing) {
-    const Task& t = list.tasks[i];
+  constexpr std::size_t shown = 8;  // one line a person reads; the rest by count
+  for (std::size_t n = 0; n < missing.size(); ++n) {
+    if (n == shown) {
+      out += weft::format("; and {} more (their logs are in {})", missing.size() - shown, (list.cache / "logs").string());
+      break;
+    }
+    const Task& t = list.tasks[missing[n]];
     out += weft::format("{}'{}' (task {}, log {}: {})", out.empty() ? "" : "; ", t.label, t.id, log_path(list, t).string(),
                         last_log_line(list, t));
   }

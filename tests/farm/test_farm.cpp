@@ -198,6 +198,11 @@ TEST_CASE("local runner: done tasks are skipped, -j 2 runs two at once, failures
   TaskList never = list;
   never.tasks = {shell_task("0f", "true", "out/f.txt")};
   CHECK(contains(weft::farm::describe_missing(never, {0}), "never started"));
+  for (int i = 0; i < 11; ++i) never.tasks.push_back(shell_task(weft::format("1{}", i), "true", "o"));
+  const std::string many = weft::farm::describe_missing(never, {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11});
+  CHECK(contains(many, "and 4 more"));
+  CHECK(contains(many, "task 16,"));
+  CHECK_FALSE(contains(many, "task 17,"));
 }
 
 TEST_CASE("a killed task leaves no output, and its next run removes the temporary and computes") {
