@@ -14,6 +14,8 @@ packages=(
   libglfw3-dev libimgui-dev xvfb xauth libfuzzer-19-dev
   # the Python module (import weft), its tests and docs/python.md's plot
   pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
+  # the farm's Slurm runner and its test's one-node cluster (docs/farm.md)
+  slurm-wlm munge
 )
 # Packages whose Debian 12 version is too old: take them from bookworm-backports.
 backported=(cmake mesa-vulkan-drivers libgl1-mesa-dri libglx-mesa0 libegl-mesa0 libgbm1 libglapi-mesa libdrm2 libdrm-amdgpu1)

@@ -3,6 +3,7 @@ module;
 #include <chrono>
 #include <ctime>
 #include <expected>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -68,6 +69,75 @@ Result<RenderedSetting> render_setting(gpu::Device& device, const scene::Scene& 
   out.row.process_cpu_ms = median(process);
   out.row.frame_ms = cpu_adapter ? out.row.process_cpu_ms : out.row.gpu_ms;
   out.warnings = std::move(first->warnings);
+  return out;
+}
+
+Result<AlternatedSetting> render_alternating(gpu::Device& device, const scene::Scene& base, const tradeoff::Study& study,
+                                             const tradeoff::Setting& setting, const tradeoff::Setting& baseline,
+                                             const renderer::RenderOptions& defaults, unsigned frames, bool cpu_adapter) {
+  Baseline fresh{baseline, std::nullopt};
+  return render_alternating(device, base, study, setting, fresh, defaults, frames, cpu_adapter);
+}
+
+Result<AlternatedSetting> render_alternating(gpu::Device& device, const scene::Scene& base, const tradeoff::Study& study,
+                                             const tradeoff::Setting& setting, Baseline& kept,
+                                             const renderer::RenderOptions& defaults, unsigned frames, bool cpu_adapter) {
+  const tradeoff::Setting& baseline = kept.setting;
+  scene::Scene scene = base, baseline_scene = base;
+  if (auto ok = tradeoff::apply_setting(scene, study, setting); !ok) return std::unexpected(ok.error());
+  if (auto ok = tradeoff::apply_setting(baseline_scene, study, baseline); !ok) return std::unexpected(ok.error());
+  renderer::RenderOptions options = defaults, baseline_options = defaults;
+  options.quality = setting.quality;
+  baseline_options.quality = baseline.quality;
+  if (study.clear_caches) study.clear_caches();
+  auto r = renderer::Renderer::create(device);
+  if (!r) return std::unexpected(r.error());
+  const auto t0 = std::chrono::steady_clock::now();
+  auto first = r->render(scene, options);
+  if (!first) return with_context(weft::format("setting '{}'", setting.label), first.error());
+  AlternatedSetting out;
+  out.setting.row.setting = setting;
+  out.setting.row.cold_frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (!kept.renderer) {
+    auto made = renderer::Renderer::create(device);
+    if (!made) return std::unexpected(made.error());
+    kept.renderer.emplace(std::move(*made));
+  }
+  renderer::Renderer* rb = &*kept.renderer;
+  if (auto f = rb->render(baseline_scene, baseline_options); !f)
+    return with_context(weft::format("baseline '{}'", baseline.label), f.error());
+  std::vector<double> gpu, cpu, feature, process, baseline_cost, ratio;
+  for (unsigned i = 0; i < frames; ++i) {
+    double c0 = process_cpu_ms();
+    auto f = r->render(scene, options);
+    if (!f) return with_context(weft::format("setting '{}'", setting.label), f.error());
+    process.push_back(process_cpu_ms() - c0);
+    gpu.push_back(f->stats.gpu_total_ms);
+    cpu.push_back(f->stats.cpu_frame_ms);
+    double ms = 0.0;
+    for (const auto& p : f->stats.passes)
+      if (std::find(study.passes.begin(), study.passes.end(), p.name) != study.passes.end()) ms += p.gpu_ms;
+    feature.push_back(ms);
+    if (i + 1 == frames) out.setting.image = std::move(f->image);
+    c0 = process_cpu_ms();
+    auto b = rb->render(baseline_scene, baseline_options);
+    if (!b) return with_context(weft::format("baseline '{}'", baseline.label), b.error());
+    const double b_ms = cpu_adapter ? process_cpu_ms() - c0 : b->stats.gpu_total_ms;
+    const double a_ms = cpu_adapter ? process.back() : gpu.back();
+    baseline_cost.push_back(b_ms);
+    if (b_ms > 0.0) ratio.push_back(a_ms / b_ms);
+  }
+  if (frames == 0) out.setting.image = std::move(first->image);
+  auto& row = out.setting.row;
+  row.gpu_ms = median(gpu);
+  row.wall_ms = median(cpu);
+  row.feature_gpu_ms = median(feature);
+  row.process_cpu_ms = median(process);
+  row.frame_ms = cpu_adapter ? row.process_cpu_ms : row.gpu_ms;
+  out.baseline_frame_ms = median(baseline_cost);
+  out.cost_ratio = median(ratio);
+  row.cost_ratio = out.cost_ratio;
+  out.setting.warnings = std::move(first->warnings);
   return out;
 }
 

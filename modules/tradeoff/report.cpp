@@ -74,10 +74,16 @@ std::vector<std::size_t> by_cost(std::span<const Row> rows, CostAxis axis) {
 }
 }  // namespace
 
+bool has_ratios(std::span<const Row> rows) {
+  return std::any_of(rows.begin(), rows.end(), [](const Row& r) { return !std::isnan(r.cost_ratio); });
+}
+
 std::string csv(std::span<const Row> rows, const ReportInfo& info) {
+  const bool ratios = has_ratios(rows);
   std::string out =
       "feature,setting,group,quality,preset,reference,values,frame_ms,gpu_ms,feature_gpu_ms,process_cpu_ms,wall_ms,"
-      "cold_frame_ms,rmse_linear,relative_rmse,psnr_db,ssim,max_diff,pixels,pareto\n";
+      "cold_frame_ms,rmse_linear,relative_rmse,psnr_db,ssim,max_diff,pixels,pareto";
+  out += ratios ? ",cost_ratio,node\n" : "\n";
   for (const auto& r : rows) {
     const auto& s = r.setting;
     const std::array<std::string, 20> fields = {
@@ -87,6 +93,7 @@ std::string csv(std::span<const Row> rows, const ReportInfo& info) {
         number(r.error.rmse, 6), number(r.error.relative_rmse, 5), number(r.error.psnr_db, 2),
         number(r.error.ssim, 5), number(r.error.max_diff, 5), std::to_string(r.error.pixels), r.pareto ? "1" : "0"};
     for (std::size_t i = 0; i < fields.size(); ++i) out += (i ? "," : "") + csv_field(fields[i]);
+    if (ratios) out += "," + number(r.cost_ratio, 4) + "," + csv_field(r.node);
     out += "\n";
   }
   return out;
@@ -98,8 +105,11 @@ std::string markdown(std::span<const Row> rows, const ReportInfo& info) {
                       "timestamps; cold: the first frame's wall time with empty caches. Error: linear RGB against "
                       "the reference over {}.\n\n",
                       info.command, info.device, to_string(info.cost), info.frame_clock, info.frames, info.mask_note);
-  out += "| setting | frame ms | GPU ms | cold frame ms | RMSE (linear) | relative RMSE | PSNR dB | SSIM | max diff | Pareto |\n";
-  out += "|---|---:|---:|---:|---:|---:|---:|---:|---:|:---:|\n";
+  const bool ratios = has_ratios(rows);
+  out += "| setting | frame ms | GPU ms | cold frame ms | RMSE (linear) | relative RMSE | PSNR dB | SSIM | max diff | Pareto |";
+  out += ratios ? " cost ratio |\n" : "\n";
+  out += "|---|---:|---:|---:|---:|---:|---:|---:|---:|:---:|";
+  out += ratios ? "---:|\n" : "\n";
   for (auto i : by_cost(rows, info.cost)) {
     const auto& r = rows[i];
     std::string label = r.setting.label;
@@ -109,6 +119,10 @@ std::string markdown(std::span<const Row> rows, const ReportInfo& info) {
                         weft::format("{:.1f} %", 100.0 * r.error.relative_rmse),
                         number(r.error.psnr_db, 1), number(r.error.ssim, 4), number(r.error.max_diff, 3),
                         r.pareto ? "●" : "");
+    if (ratios) {
+      out.pop_back();
+      out += weft::format(" {} |\n", number(r.cost_ratio, 3));
+    }
   }
   return out;
 }

@@ -222,6 +222,32 @@ std::vector<Setting> plan_sweep(const Study& study, std::span<const KnobValues> 
   return plan;
 }
 
+std::vector<Setting> plan_sweep(const Study& study, std::span<const KnobValues> overrides,
+                                std::span<const KnobValues> crossed) {
+  std::vector<Setting> plan = plan_sweep(study, overrides);
+  std::set<std::string> seen;
+  for (const auto& s : plan) seen.insert(setting_key(s));
+  std::vector<const KnobValues*> knobs;
+  std::string group;
+  for (const auto& c : crossed)
+    if (c.knob && !c.values.empty()) {
+      knobs.push_back(&c);
+      group += (group.empty() ? "" : " x ") + c.knob->name;
+    }
+  if (knobs.empty()) return plan;
+  std::vector<std::size_t> at(knobs.size(), 0);
+  for (;;) {
+    json values = json::object();
+    for (std::size_t k = 0; k < knobs.size(); ++k) values[knobs[k]->knob->name] = knobs[k]->values[at[k]];
+    Setting s{.label = label_of(values), .group = group, .values = values, .strip_knobs = true};
+    if (seen.insert(setting_key(s)).second) plan.push_back(std::move(s));
+    std::size_t k = knobs.size();
+    while (k > 0 && ++at[k - 1] == knobs[k - 1]->values.size()) at[--k] = 0;
+    if (k == 0) break;
+  }
+  return plan;
+}
+
 Setting preset_setting(const Study& study, Quality q) {
   Setting s{.label = weft::format("preset {}", to_string(q)), .group = "preset", .strip_knobs = true, .preset = q};
   if (study.preset_values)

@@ -13,6 +13,7 @@
 // gets by writing the same values into the scene file.
 module;
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <span>
 #include <string>
@@ -102,6 +103,10 @@ std::string value_text(const nlohmann::json& value);  // 32, 0.35, true, adaptiv
 // without preset_values).
 Setting preset_setting(const Study& study, Quality quality);
 std::vector<Setting> plan_sweep(const Study& study, std::span<const KnobValues> overrides = {});
+// The same plan followed by every combination of the `crossed` knobs' values (the knobs not
+// crossed left to the medium preset), group "a x b x ...", duplicates dropped as above.
+std::vector<Setting> plan_sweep(const Study& study, std::span<const KnobValues> overrides,
+                                std::span<const KnobValues> crossed);
 // The stability sweep: the minimum and maximum of each knob (every choice, both booleans),
 // one at a time on top of `base`, plus the reference.
 std::vector<Setting> extreme_settings(const Study& study, const nlohmann::json& base = nlohmann::json::object());
@@ -190,6 +195,11 @@ struct Row {
   double cold_frame_ms = 0.0;   // wall time of the first frame with empty caches (bakes included)
   ImageError error;
   bool pareto = false;
+  // Farm tasks (weft.farm) also render a baseline setting alternately with this one: the
+  // median of this frame's cost over the baseline's (comparable across nodes), and the node.
+  // NaN / empty for a serial run; the CSV and markdown get these columns only when set.
+  double cost_ratio = std::numeric_limits<double>::quiet_NaN();
+  std::string node;
   [[nodiscard]] double cost(CostAxis axis) const { return axis == CostAxis::Frame ? frame_ms : cold_frame_ms; }
 };
 

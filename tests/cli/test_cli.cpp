@@ -119,6 +119,7 @@ TEST_CASE("weft tradeoff: bad input is named; a small fur sweep writes its CSV, 
                         Case{"tradeoff " + fur + " --pass tonemap", "trades no accuracy"},
                         Case{"tradeoff " + fur + " --pass nosuch", "no pass 'nosuch'"},
                         Case{"tradeoff " + fur + " --pass shadow_map --values resolution=99999", "resolution"},
+                        Case{"tradeoff " + fur + " --pass shadow_map --farm local", "--pass studies run in this process"},
                         Case{"tradeoff " + fur + " --pass shadow_map --pipeline " + (dir / "nope.json").string(), "nope.json"},
                         Case{"tradeoff " + fur + " --feature hair", "'hair'"},
                         Case{"tradeoff " + s + " --feature fur", "no \"shell_fur\" material"},  // "fur" is its alias

@@ -53,6 +53,7 @@ int main(int argc, char** argv) {
   add(weft::cli::add_bake);
   add(weft::cli::add_tradeoff);
   add(weft::cli::add_view);
+  add(weft::cli::add_farm);
   // CLI11 answers a mistyped command with "A subcommand is required"; name the word instead.
   const auto subcommands = app.get_subcommands({});
   const auto names = [&](const std::string& word) {
