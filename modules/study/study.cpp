@@ -30,6 +30,36 @@ double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
+
+// The costs of a setting's steady frames, one sample per frame.
+struct Samples {
+  std::vector<double> gpu, cpu, feature, process;
+};
+
+// One steady frame of the setting, its costs added to `samples`.
+Result<renderer::Frame> measured_frame(renderer::Renderer& r, const scene::Scene& scene, const renderer::RenderOptions& options,
+                                       const tradeoff::Study& study, const tradeoff::Setting& setting, Samples& samples) {
+  const double c0 = process_cpu_ms();
+  auto f = r.render(scene, options);
+  if (!f) return with_context(weft::format("setting '{}'", setting.label), f.error());
+  samples.process.push_back(process_cpu_ms() - c0);
+  samples.gpu.push_back(f->stats.gpu_total_ms);
+  samples.cpu.push_back(f->stats.cpu_frame_ms);
+  double ms = 0.0;
+  for (const auto& p : f->stats.passes)
+    if (std::find(study.passes.begin(), study.passes.end(), p.name) != study.passes.end()) ms += p.gpu_ms;
+  samples.feature.push_back(ms);
+  return f;
+}
+
+// The medians into the row; the frame's cost is process CPU time on a CPU adapter.
+void fill_costs(tradeoff::Row& row, const Samples& samples, bool cpu_adapter) {
+  row.gpu_ms = median(samples.gpu);
+  row.wall_ms = median(samples.cpu);
+  row.feature_gpu_ms = median(samples.feature);
+  row.process_cpu_ms = median(samples.process);
+  row.frame_ms = cpu_adapter ? row.process_cpu_ms : row.gpu_ms;
+}
 }  // namespace
 
 Result<RenderedSetting> render_setting(gpu::Device& device, const scene::Scene& base, const tradeoff::Study& study,
@@ -48,26 +78,14 @@ Result<RenderedSetting> render_setting(gpu::Device& device, const scene::Scene& 
   RenderedSetting out;
   out.row.setting = setting;
   out.row.cold_frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  std::vector<double> gpu, cpu, feature, process;
+  Samples samples;
   for (unsigned i = 0; i < frames; ++i) {
-    const double c0 = process_cpu_ms();
-    auto f = r->render(scene, options);
-    if (!f) return with_context(weft::format("setting '{}'", setting.label), f.error());
-    process.push_back(process_cpu_ms() - c0);
-    gpu.push_back(f->stats.gpu_total_ms);
-    cpu.push_back(f->stats.cpu_frame_ms);
-    double ms = 0.0;
-    for (const auto& p : f->stats.passes)
-      if (std::find(study.passes.begin(), study.passes.end(), p.name) != study.passes.end()) ms += p.gpu_ms;
-    feature.push_back(ms);
+    auto f = measured_frame(*r, scene, options, study, setting, samples);
+    if (!f) return std::unexpected(f.error());
     if (i + 1 == frames) out.image = std::move(f->image);
   }
   if (frames == 0) out.image = std::move(first->image);
-  out.row.gpu_ms = median(gpu);
-  out.row.wall_ms = median(cpu);
-  out.row.feature_gpu_ms = median(feature);
-  out.row.process_cpu_ms = median(process);
-  out.row.frame_ms = cpu_adapter ? out.row.process_cpu_ms : out.row.gpu_ms;
+  fill_costs(out.row, samples, cpu_adapter);
   out.warnings = std::move(first->warnings);
   return out;
 }
@@ -106,34 +124,23 @@ Result<AlternatedSetting> render_alternating(gpu::Device& device, const scene::S
   renderer::Renderer* rb = &*kept.renderer;
   if (auto f = rb->render(baseline_scene, baseline_options); !f)
     return with_context(weft::format("baseline '{}'", baseline.label), f.error());
-  std::vector<double> gpu, cpu, feature, process, baseline_cost, ratio;
+  Samples samples;
+  std::vector<double> baseline_cost, ratio;
   for (unsigned i = 0; i < frames; ++i) {
-    double c0 = process_cpu_ms();
-    auto f = r->render(scene, options);
-    if (!f) return with_context(weft::format("setting '{}'", setting.label), f.error());
-    process.push_back(process_cpu_ms() - c0);
-    gpu.push_back(f->stats.gpu_total_ms);
-    cpu.push_back(f->stats.cpu_frame_ms);
-    double ms = 0.0;
-    for (const auto& p : f->stats.passes)
-      if (std::find(study.passes.begin(), study.passes.end(), p.name) != study.passes.end()) ms += p.gpu_ms;
-    feature.push_back(ms);
+    auto f = measured_frame(*r, scene, options, study, setting, samples);
+    if (!f) return std::unexpected(f.error());
     if (i + 1 == frames) out.setting.image = std::move(f->image);
-    c0 = process_cpu_ms();
+    const double c0 = process_cpu_ms();
     auto b = rb->render(baseline_scene, baseline_options);
     if (!b) return with_context(weft::format("baseline '{}'", baseline.label), b.error());
     const double b_ms = cpu_adapter ? process_cpu_ms() - c0 : b->stats.gpu_total_ms;
-    const double a_ms = cpu_adapter ? process.back() : gpu.back();
+    const double a_ms = cpu_adapter ? samples.process.back() : samples.gpu.back();
     baseline_cost.push_back(b_ms);
     if (b_ms > 0.0) ratio.push_back(a_ms / b_ms);
   }
   if (frames == 0) out.setting.image = std::move(first->image);
   auto& row = out.setting.row;
-  row.gpu_ms = median(gpu);
-  row.wall_ms = median(cpu);
-  row.feature_gpu_ms = median(feature);
-  row.process_cpu_ms = median(process);
-  row.frame_ms = cpu_adapter ? row.process_cpu_ms : row.gpu_ms;
+  fill_costs(row, samples, cpu_adapter);
   out.baseline_frame_ms = median(baseline_cost);
   out.cost_ratio = median(ratio);
   row.cost_ratio = out.cost_ratio;
