@@ -438,10 +438,10 @@ Result<VkCommandPool> DeviceShared::thread_pool() {
   std::lock_guard lock(mutex);
   auto& pool = pools[std::this_thread::get_id()];
   if (!pool) {
-    VkCommandPoolCreateInfo info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-    info.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
-    info.queueFamilyIndex = queue_family;
-    if (VkResult r = vkCreateCommandPool(device, &info, nullptr, &pool); r != VK_SUCCESS) {
+    VkCommandPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+    pool_info.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+    pool_info.queueFamilyIndex = queue_family;
+    if (VkResult r = vkCreateCommandPool(device, &pool_info, nullptr, &pool); r != VK_SUCCESS) {
       pool = VK_NULL_HANDLE;
       return std::unexpected(vk_error(r, "vkCreateCommandPool"));
     }
@@ -484,9 +484,11 @@ Result<void> DeviceShared::wait_idle() {
   {
     std::lock_guard lock(mutex);
     const auto self = std::this_thread::get_id();
-    auto split = std::stable_partition(pending.begin(), pending.end(), [&](const Pending& p) { return p.thread != self; });
-    mine.assign(split, pending.end());
-    pending.erase(split, pending.end());
+    // This thread's submissions out, the others' kept in order (std::stable_partition would
+    // do, but libstdc++ 12's uses the deprecated get_temporary_buffer).
+    std::vector<Pending> others;
+    for (const Pending& p : pending) (p.thread == self ? mine : others).push_back(p);
+    pending = std::move(others);
   }
   if (mine.empty()) return {};
   std::vector<VkFence> fences;
