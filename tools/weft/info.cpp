@@ -8,7 +8,7 @@ import weft.gpu;
 namespace weft::cli {
 
 Command add_info(CLI::App& app) {
-  auto* sub = app.add_subcommand("info", "Show the Vulkan adapters, the chosen one and its limits");
+  app.add_subcommand("info", "Show the Vulkan adapters, the chosen one and its limits");
   return [] {
     auto instance = gpu::Instance::create({.application_name = "weft-info"});
     if (!instance) {

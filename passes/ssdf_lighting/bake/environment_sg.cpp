@@ -233,10 +233,10 @@ Result<std::vector<SphericalGaussian>> fit_environment(const image::Image& map, 
           continue;
         }
         // log of the vMF density κ / (2π (1 − e^{−2κ})) e^{κ(μ·x − 1)}, 1/(4π) at κ = 0.
-        const double k = kappa[c];
-        const double norm = k < 1e-8 ? -std::log(4.0 * std::numbers::pi)
-                                     : std::log(k) - std::log(2.0 * std::numbers::pi) - std::log(-std::expm1(-2.0 * k));
-        logp[c] = std::log(mix[c] / total) + norm + k * (double(glm::dot(mu[c], x)) - 1.0);
+        const double kc = kappa[c];
+        const double norm = kc < 1e-8 ? -std::log(4.0 * std::numbers::pi)
+                                      : std::log(kc) - std::log(2.0 * std::numbers::pi) - std::log(-std::expm1(-2.0 * kc));
+        logp[c] = std::log(mix[c] / total) + norm + kc * (double(glm::dot(mu[c], x)) - 1.0);
         best = std::max(best, logp[c]);
       }
       double sum = 0.0;
