@@ -192,6 +192,10 @@ Result<VkBufferImageCopy> texture_copy_region(const Texture& texture, TextureUsa
                 to_string(needed), to_string(texture.usage()));
   if (mip >= texture.descriptor().mip_level_count)
     return fail(ErrorKind::InvalidArgument, "texture '{}' has no mip {}", texture.label(), mip);
+  if (texture.sample_count() != 1)
+    return fail(ErrorKind::InvalidArgument,
+                "copy {} texture '{}' has {} samples: resolve it into a single-sample texture first", role,
+                texture.label(), texture.sample_count());
   if (offset + mip_bytes(texture, mip) > buffer.size())
     return fail(ErrorKind::InvalidArgument,
                 "buffer '{}' ({} bytes from offset {}) is too small for mip {} of texture '{}' ({} bytes)",
@@ -240,6 +244,10 @@ void CommandEncoder::blit_texture(const Texture& src, const Texture& dst, Filter
     return bad(weft::format("blit target '{}' lacks copy-dst usage (has {})", dst.label(), to_string(dst.usage())));
   if (format_info(src.format()).depth || format_info(dst.format()).depth)
     return bad(weft::format("blit from '{}' to '{}': depth textures cannot be blitted", src.label(), dst.label()));
+  if (src.sample_count() != 1 || dst.sample_count() != 1)
+    return bad(weft::format("blit from '{}' ({} samples) to '{}' ({} samples): multisampled textures are resolved, "
+                            "not blitted (ColorAttachment::resolve_target)",
+                            src.label(), src.sample_count(), dst.label(), dst.sample_count()));
   VkImageBlit2 region{VK_STRUCTURE_TYPE_IMAGE_BLIT_2};
   region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
   region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
@@ -254,6 +262,38 @@ void CommandEncoder::blit_texture(const Texture& src, const Texture& dst, Filter
   info.pRegions = &region;
   info.filter = filter == FilterMode::Linear ? VK_FILTER_LINEAR : VK_FILTER_NEAREST;
   vkCmdBlitImage2(cmd_, &info);
+}
+
+void CommandEncoder::resolve_texture(const Texture& src, const Texture& dst) {
+  if (!check_outside_pass("resolve_texture")) return;
+  auto bad = [&](std::string message) { report_error({ErrorKind::InvalidArgument, std::move(message)}); };
+  if (!has(src.usage(), TextureUsage::CopySrc))
+    return bad(weft::format("resolve source '{}' lacks copy-src usage (has {})", src.label(), to_string(src.usage())));
+  if (!has(dst.usage(), TextureUsage::CopyDst))
+    return bad(weft::format("resolve target '{}' lacks copy-dst usage (has {})", dst.label(), to_string(dst.usage())));
+  if (format_info(src.format()).depth)
+    return bad(weft::format("resolve of '{}': a depth texture resolves in a render pass (DepthAttachment::resolve_target)",
+                            src.label()));
+  if (src.sample_count() == 1 || dst.sample_count() != 1)
+    return bad(weft::format("resolve from '{}' ({} samples) to '{}' ({} samples): the source must be multisampled and the "
+                            "target single-sample",
+                            src.label(), src.sample_count(), dst.label(), dst.sample_count()));
+  if (src.format() != dst.format() || src.size().width != dst.size().width || src.size().height != dst.size().height)
+    return bad(weft::format("resolve from '{}' ({}, {}x{}) to '{}' ({}, {}x{}): format and size must match", src.label(),
+                            to_string(src.format()), src.size().width, src.size().height, dst.label(),
+                            to_string(dst.format()), dst.size().width, dst.size().height));
+  VkImageResolve2 region{VK_STRUCTURE_TYPE_IMAGE_RESOLVE_2};
+  region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.extent = {src.size().width, src.size().height, 1};
+  VkResolveImageInfo2 info{VK_STRUCTURE_TYPE_RESOLVE_IMAGE_INFO_2};
+  info.srcImage = src.image_;
+  info.srcImageLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  info.dstImage = dst.image_;
+  info.dstImageLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  info.regionCount = 1;
+  info.pRegions = &region;
+  vkCmdResolveImage2(cmd_, &info);
 }
 
 void CommandEncoder::reset_query_set(const QuerySet& set) {
@@ -293,6 +333,33 @@ RenderPassEncoder CommandEncoder::begin_render_pass(const RenderPassDescriptor& 
     if (!extent) extent = s;
     return *extent == s;
   };
+  // Every attachment of a pass has one sample count (the first one's).
+  std::optional<std::pair<std::uint32_t, std::string>> samples;
+  auto check_samples = [&](const Texture& t, std::string what) -> bool {
+    if (!samples) samples.emplace(t.sample_count(), weft::format("{} '{}'", what, t.label()));
+    if (samples->first == t.sample_count()) return true;
+    bad(weft::format("{} '{}' has {} samples, {} has {}: a pass's attachments share one sample count", what, t.label(),
+                     t.sample_count(), samples->second, samples->first));
+    return false;
+  };
+  auto resolve_problem = [](const Texture& t, const TextureView& v, const Texture& r, const TextureView& rv) -> std::string {
+    if (t.sample_count() == 1)
+      return weft::format("texture '{}' has one sample: there is nothing to resolve into '{}'", t.label(), r.label());
+    if (r.sample_count() != 1)
+      return weft::format("resolve target '{}' has {} samples (needs 1)", r.label(), r.sample_count());
+    if (r.format() != t.format())
+      return weft::format("resolve target '{}' is {}, the attachment '{}' is {}", r.label(), to_string(r.format()),
+                          t.label(), to_string(t.format()));
+    const VkExtent3D a = mip_extent(t, v.base_mip()), b = mip_extent(r, rv.base_mip());
+    if (a.width != b.width || a.height != b.height)
+      return weft::format("resolve target '{}' is {}x{}, the attachment '{}' is {}x{}", r.label(), b.width, b.height,
+                          t.label(), a.width, a.height);
+    if (!has(r.usage(), t.format() == r.format() && format_info(r.format()).depth ? TextureUsage::DepthAttachment
+                                                                                   : TextureUsage::ColorAttachment))
+      return weft::format("resolve target '{}' lacks {} usage (has {})", r.label(),
+                          format_info(r.format()).depth ? "depth-attachment" : "color-attachment", to_string(r.usage()));
+    return {};
+  };
   std::vector<VkRenderingAttachmentInfo> colors;
   for (std::size_t i = 0; i < desc.color_attachments.size(); ++i) {
     const auto& a = desc.color_attachments[i];
@@ -303,12 +370,23 @@ RenderPassEncoder CommandEncoder::begin_render_pass(const RenderPassDescriptor& 
     if (!check_size(*a.view))
       return bad(weft::format("color attachment {} texture '{}' is {}x{}, the first attachment is {}x{}", i, t.label(),
                              t.size().width >> a.view->base_mip(), t.size().height >> a.view->base_mip(), extent->width, extent->height));
+    if (!check_samples(t, weft::format("color attachment {}", i))) return pass;
     VkRenderingAttachmentInfo info{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
     info.imageView = a.view->view_;
     info.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
     info.loadOp = load_op(a.load);
     info.storeOp = store_op(a.store);
     info.clearValue.color = {{a.clear_color.x, a.clear_color.y, a.clear_color.z, a.clear_color.w}};
+    if (a.resolve_target) {
+      const Texture& r = a.resolve_target->texture();
+      if (auto problem = resolve_problem(t, *a.view, r, *a.resolve_target); !problem.empty())
+        return bad(weft::format("color attachment {}: {}", i, problem));
+      // Averaging is what a colour resolve means; integer formats have only sample zero.
+      info.resolveMode = t.format() == Format::R32Uint || t.format() == Format::RGBA32Uint ? VK_RESOLVE_MODE_SAMPLE_ZERO_BIT
+                                                                                            : VK_RESOLVE_MODE_AVERAGE_BIT;
+      info.resolveImageView = a.resolve_target->view_;
+      info.resolveImageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    }
     colors.push_back(info);
     pass.color_formats_.push_back(t.format());
   }
@@ -329,6 +407,19 @@ RenderPassEncoder CommandEncoder::begin_render_pass(const RenderPassDescriptor& 
     depth.storeOp = a.read_only ? VK_ATTACHMENT_STORE_OP_NONE : store_op(a.store);
     depth.clearValue.depthStencil = {a.clear_depth, 0};
     pass.depth_format_ = t.format();
+    if (!check_samples(t, "depth attachment")) return pass;
+    if (a.resolve_target) {
+      const Texture& r = a.resolve_target->texture();
+      if (auto problem = resolve_problem(t, *a.view, r, *a.resolve_target); !problem.empty())
+        return bad(weft::format("depth attachment: {}", problem));
+      const std::uint32_t modes = device_->info.limits.depth_resolve_modes;
+      if (!(modes & (1u << std::uint32_t(a.resolve_mode))))
+        return bad(weft::format("depth attachment '{}': resolve mode {} is not one adapter '{}' has", t.label(),
+                                to_string(a.resolve_mode), device_->info.name));
+      depth.resolveMode = VkResolveModeFlagBits(1u << std::uint32_t(a.resolve_mode));
+      depth.resolveImageView = a.resolve_target->view_;
+      depth.resolveImageLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    }
   }
   VkRenderingInfo info{VK_STRUCTURE_TYPE_RENDERING_INFO};
   info.renderArea = {{0, 0}, {extent->width, extent->height}};
@@ -342,6 +433,7 @@ RenderPassEncoder CommandEncoder::begin_render_pass(const RenderPassDescriptor& 
   in_pass_ = true;
   pass.width_ = extent->width;
   pass.height_ = extent->height;
+  pass.sample_count_ = samples ? samples->first : 1;
   // Default viewport and scissor: the whole attachment. Clip space is Vulkan's (y down, z in
   // [0, 1]); cameras build their projections for it.
   VkViewport viewport{0, 0, float(extent->width), float(extent->height), 0.0f, 1.0f};
@@ -361,6 +453,7 @@ RenderPassEncoder::RenderPassEncoder(RenderPassEncoder&& o) noexcept
       height_(o.height_),
       color_formats_(std::move(o.color_formats_)),
       depth_format_(o.depth_format_),
+      sample_count_(o.sample_count_),
       label_(std::move(o.label_)),
       ended_(std::exchange(o.ended_, true)) {}
 
@@ -381,6 +474,12 @@ void RenderPassEncoder::set_pipeline(const RenderPipeline& pipeline) {
                             weft::format("render pass '{}': pipeline '{}' targets [{}] depth {} but the pass has [{}] depth {}",
                                         label_, pipeline.label(), want, to_string(pipeline.depth_format_), have,
                                         to_string(depth_format_))});
+    return;
+  }
+  if (pipeline.sample_count_ != sample_count_) {
+    encoder_->report_error({ErrorKind::InvalidArgument,
+                            weft::format("render pass '{}': pipeline '{}' renders {} samples, the pass's attachments have {}",
+                                         label_, pipeline.label(), pipeline.sample_count_, sample_count_)});
     return;
   }
   pipeline_ = &pipeline;
@@ -629,6 +728,42 @@ Result<void> Queue::write_texture(const Texture& texture, std::span<const std::b
   if (!encoder) return std::unexpected(encoder.error());
   encoder->transition(texture, Access::CopyDst);
   encoder->copy_buffer_to_texture(*stage, 0, texture, mip);
+  encoder->transition(texture, after);
+  auto commands = encoder->finish();
+  if (!commands) return std::unexpected(commands.error());
+  if (auto ok = submit(std::move(*commands)); !ok) return ok;
+  return wait_idle();
+}
+
+Result<void> Queue::write_texture_levels(const Texture& texture, std::span<const std::span<const std::byte>> levels,
+                                         Access after) {
+  if (levels.empty() || levels.size() > texture.descriptor().mip_level_count)
+    return fail(ErrorKind::InvalidArgument, "writing texture '{}': {} levels given, it has {} mips", texture.label(),
+                levels.size(), texture.descriptor().mip_level_count);
+  if (!has(texture.usage(), TextureUsage::CopyDst))
+    return fail(ErrorKind::InvalidArgument, "writing texture '{}' needs copy-dst usage (has {})", texture.label(),
+                to_string(texture.usage()));
+  std::vector<std::uint64_t> offsets;
+  std::uint64_t total = 0;
+  for (std::uint32_t mip = 0; mip < levels.size(); ++mip) {
+    const std::uint64_t bytes = mip_bytes(texture, mip);
+    if (levels[mip].size() != bytes)
+      return fail(ErrorKind::InvalidArgument, "writing texture '{}' mip {}: got {} bytes, expected {} ({}x{} {})",
+                  texture.label(), mip, levels[mip].size(), bytes, mip_extent(texture, mip).width,
+                  mip_extent(texture, mip).height, to_string(texture.format()));
+    total = (total + 15) & ~std::uint64_t(15);  // texel-aligned offsets for every format
+    offsets.push_back(total);
+    total += bytes;
+  }
+  if (device_->declaring()) return {};
+  auto stage = DeviceShared::make_buffer(device_, {texture.label() + " (staging)", total, BufferUsage::MapWrite}, {});
+  if (!stage) return std::unexpected(stage.error());
+  for (std::uint32_t mip = 0; mip < levels.size(); ++mip)
+    std::memcpy(stage->mapped_ + offsets[mip], levels[mip].data(), levels[mip].size());
+  auto encoder = DeviceShared::make_encoder(device_, "write_texture_levels");
+  if (!encoder) return std::unexpected(encoder.error());
+  encoder->transition(texture, Access::CopyDst);
+  for (std::uint32_t mip = 0; mip < levels.size(); ++mip) encoder->copy_buffer_to_texture(*stage, offsets[mip], texture, mip);
   encoder->transition(texture, after);
   auto commands = encoder->finish();
   if (!commands) return std::unexpected(commands.error());

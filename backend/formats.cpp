@@ -84,6 +84,30 @@ std::string to_string(TextureUsage u) {
                         {TextureUsage::DepthAttachment, "depth-attachment"}});
 }
 
+std::string sample_counts_text(std::uint32_t counts) {
+  std::string text;
+  for (std::uint32_t c = 1; c <= 64; c <<= 1)
+    if (counts & c) text += (text.empty() ? "" : ", ") + std::to_string(c);
+  return text.empty() ? std::string("none") : text;
+}
+
+std::uint32_t max_sample_count(std::uint32_t counts) {
+  std::uint32_t best = 1;
+  for (std::uint32_t c = 1; c <= 64; c <<= 1)
+    if (counts & c) best = c;
+  return best;
+}
+
+std::string_view to_string(ResolveMode mode) {
+  switch (mode) {
+    case ResolveMode::SampleZero: return "sample-zero";
+    case ResolveMode::Average: return "average";
+    case ResolveMode::Min: return "min";
+    case ResolveMode::Max: return "max";
+  }
+  return "?";
+}
+
 std::string_view to_string(Access a) {
   switch (a) {
     case Access::Undefined: return "undefined";
@@ -249,11 +273,19 @@ StageAccess stage_access(Access a, bool depth) {
               VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
               VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
     case Access::DepthAttachment:
-      return {depth_stages,
-              VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      // Also the colour-output stage and accesses: a multisample resolve of depth into a
+      // single-sample attachment reads and writes there, "whether the attachments being
+      // resolved are color or depth/stencil" (the spec's render pass resolve section).
+      return {depth_stages | VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+              VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT |
+                  VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
               VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
     case Access::DepthRead:
-      return {depth_stages | shaders, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+      // Also the colour-output stage: a read-only multisampled depth attachment resolved into
+      // a single-sample one is read there (frame::add_resolve_pass).
+      return {depth_stages | shaders | VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+              VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT |
+                  VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT,
               VK_IMAGE_LAYOUT_DEPTH_STENCIL_READ_ONLY_OPTIMAL};
     case Access::HostRead: return {VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT, VK_IMAGE_LAYOUT_GENERAL};
     case Access::HostWrite:

@@ -116,7 +116,20 @@ struct Limits {
   double timestamp_period_ns = 0.0;
   bool timestamps = false;
   std::uint32_t max_compute_shared_memory = 0;  // bytes of workgroup-shared memory
+  // Multisampling: the sample counts (bit c set: c samples) a texture can render with
+  // (framebuffer*SampleCounts) and be sampled with (sampledImage*SampleCounts), colour and
+  // depth; the depth resolve modes (ResolveMode bits); 1 everywhere on a device without MSAA.
+  std::uint32_t color_sample_counts = 1, depth_sample_counts = 1;
+  std::uint32_t sampled_color_sample_counts = 1, sampled_depth_sample_counts = 1;
+  std::uint32_t depth_resolve_modes = 1;
+  // The largest sampler anisotropy (maxSamplerAnisotropy); 1 where samplerAnisotropy is absent.
+  float max_sampler_anisotropy = 1.0f;
 };
+
+// "1, 2, 4" for a mask of sample counts (Limits::color_sample_counts and friends).
+std::string sample_counts_text(std::uint32_t counts);
+// The largest count of a mask (e.g. 4 for lavapipe's 1 | 4).
+std::uint32_t max_sample_count(std::uint32_t counts);
 
 // Optional capabilities a pass may choose a path by (detected, not enabled: a pass that uses
 // one asks the device for it).
@@ -297,6 +310,10 @@ struct TextureDescriptor {
   TextureUsage usage = TextureUsage::None;
   std::uint32_t mip_level_count = 1;
   TextureDimension dimension = TextureDimension::D2;
+  // 1, or a count the adapter renders this format with (Limits::color_sample_counts,
+  // depth_sample_counts): a multisampled texture has one mip, is 2D, and is resolved
+  // (ColorAttachment::resolve_target) before it is copied or sampled as one value per texel.
+  std::uint32_t sample_count = 1;
 };
 
 class Texture;
@@ -336,6 +353,7 @@ class Texture {
   [[nodiscard]] Extent3D size() const { return desc_.size; }
   [[nodiscard]] Format format() const { return desc_.format; }
   [[nodiscard]] TextureUsage usage() const { return desc_.usage; }
+  [[nodiscard]] std::uint32_t sample_count() const { return desc_.sample_count; }
   // The view of every mip and layer, created with the texture (an empty view when the
   // texture can only be copied: Vulkan allows no views of such images).
   [[nodiscard]] const TextureView& view() const { return *default_view_; }
@@ -375,6 +393,10 @@ struct SamplerDescriptor {
   std::optional<AddressMode> address_mode_v;  // v (and w) when it differs from u (glTF's wrapT)
   std::optional<CompareFunction> compare;  // set for shadow-map (comparison) samplers
   float max_lod = 32.0f;
+  // Anisotropic filtering: 1 is off; above 1, up to this many taps along the footprint's
+  // long axis, clamped to Limits::max_sampler_anisotropy (wgpu's anisotropy_clamp). Needs
+  // linear filters.
+  float max_anisotropy = 1.0f;
 };
 
 class Sampler {
@@ -587,6 +609,15 @@ struct DepthStencilState {
   float depth_bias_slope = 0.0f;
 };
 
+// How a pipeline rasterises into multisampled attachments (wgpu's MultisampleState).
+struct MultisampleState {
+  std::uint32_t count = 1;  // the attachments' sample count
+  std::uint32_t mask = ~0u;  // samples that may be written
+  // The fragment's alpha becomes its coverage (hair, foliage: alpha-tested edges that
+  // anti-alias with MSAA instead of a hard discard). Needs count > 1.
+  bool alpha_to_coverage = false;
+};
+
 struct RenderPipelineDescriptor {
   std::string label;
   const PipelineLayout* layout = nullptr;
@@ -598,6 +629,7 @@ struct RenderPipelineDescriptor {
   bool front_face_clockwise = false;
   std::vector<ColorTargetState> color_targets;
   std::optional<DepthStencilState> depth_stencil;
+  MultisampleState multisample;
 };
 
 class RenderPipeline {
@@ -606,6 +638,7 @@ class RenderPipeline {
   RenderPipeline& operator=(RenderPipeline&&) noexcept;
   ~RenderPipeline();
   [[nodiscard]] const std::string& label() const { return label_; }
+  [[nodiscard]] std::uint32_t sample_count() const { return sample_count_; }
 
  private:
   RenderPipeline() = default;
@@ -615,6 +648,7 @@ class RenderPipeline {
   std::uint32_t push_constant_size_ = 0;
   std::vector<Format> color_formats_;
   Format depth_format_ = Format::Undefined;
+  std::uint32_t sample_count_ = 1;
   std::string label_;
   friend class Device;
   friend class RenderPassEncoder;
@@ -648,11 +682,19 @@ class ComputePipeline {
 enum class LoadOp : std::uint8_t { Clear, Load, DontCare };
 enum class StoreOp : std::uint8_t { Store, DontCare };
 
+// How a multisampled depth attachment becomes one value per texel (VkResolveModeFlagBits'
+// bits: Limits::depth_resolve_modes has bit 1 << mode). SampleZero is always there.
+enum class ResolveMode : std::uint8_t { SampleZero, Average, Min, Max };
+std::string_view to_string(ResolveMode mode);
+
 struct ColorAttachment {
   const TextureView* view = nullptr;
   LoadOp load = LoadOp::Clear;
   StoreOp store = StoreOp::Store;
   vec4 clear_color{0.0f, 0.0f, 0.0f, 1.0f};
+  // A multisampled `view` is averaged into this single-sample view of its format and size
+  // when the pass ends (in ColorAttachment state); `store` may then be DontCare.
+  const TextureView* resolve_target = nullptr;
 };
 struct DepthAttachment {
   const TextureView* view = nullptr;
@@ -662,6 +704,10 @@ struct DepthAttachment {
   // Depth-tested but never written (texture in DepthRead state): loads, stores nothing,
   // and may be sampled by the same pass.
   bool read_only = false;
+  // A multisampled `view` resolved into this single-sample depth view (in DepthAttachment
+  // state) when the pass ends, by `resolve_mode` (which the adapter must have).
+  const TextureView* resolve_target = nullptr;
+  ResolveMode resolve_mode = ResolveMode::SampleZero;
 };
 struct RenderPassDescriptor {
   std::string label;
@@ -723,6 +769,7 @@ class RenderPassEncoder {
   std::uint32_t width_ = 0, height_ = 0;
   std::vector<Format> color_formats_;
   Format depth_format_ = Format::Undefined;
+  std::uint32_t sample_count_ = 1;
   std::string label_;
   bool ended_ = false;
   friend class CommandEncoder;
@@ -785,6 +832,10 @@ class CommandEncoder {
   // Scales all of `src` (CopySrc state) onto all of `dst` (CopyDst state), converting the
   // format (e.g. RGBA to a window's BGRA); linear or nearest filtering.
   void blit_texture(const Texture& src, const Texture& dst, FilterMode filter = FilterMode::Linear);
+  // Averages the samples of multisampled colour `src` (CopySrc state) into single-sample
+  // `dst` (CopyDst state) of its format and size: a resolve as a transfer, which reads `src`
+  // and writes nothing else (a render pass's resolve target stores its attachment too).
+  void resolve_texture(const Texture& src, const Texture& dst);
 
   // Explicit barriers (what the graph emits), batched into one vkCmdPipelineBarrier2.
   void barrier(std::span<const TextureBarrier> textures, std::span<const BufferBarrier> buffers = {});
@@ -834,6 +885,10 @@ class Queue {
   // Uploads tightly-packed texels to mip `mip` and leaves the texture in ShaderRead state.
   Result<void> write_texture(const Texture& texture, std::span<const std::byte> data, std::uint32_t mip = 0,
                              Access after = Access::ShaderRead);
+  // Uploads mips 0..levels.size()-1 (each tightly packed) through one staging buffer in one
+  // submission, and waits: a texture's mip chain (Texture::mip_level_count of them at most).
+  Result<void> write_texture_levels(const Texture& texture, std::span<const std::span<const std::byte>> levels,
+                                    Access after = Access::ShaderRead);
   // Copies a texture's mip back to the host (tightly packed) and waits. The texture must
   // have CopySrc usage; it is left in `after` state.
   Result<std::vector<std::byte>> read_texture(const Texture& texture, std::uint32_t mip = 0);

@@ -113,7 +113,8 @@ AdapterFeatures detect_features(VkPhysicalDevice pd) {
 }
 
 AdapterInfo describe(VkPhysicalDevice pd) {
-  VkPhysicalDeviceDriverProperties driver{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
+  VkPhysicalDeviceDepthStencilResolveProperties resolve{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DEPTH_STENCIL_RESOLVE_PROPERTIES};
+  VkPhysicalDeviceDriverProperties driver{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES, &resolve};
   VkPhysicalDeviceProperties2 props{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, &driver};
   vkGetPhysicalDeviceProperties2(pd, &props);
   const auto& p = props.properties;
@@ -145,6 +146,20 @@ AdapterInfo describe(VkPhysicalDevice pd) {
   l.timestamp_period_ns = p.limits.timestampPeriod;
   l.timestamps = p.limits.timestampComputeAndGraphics;
   l.max_compute_shared_memory = p.limits.maxComputeSharedMemorySize;
+  l.color_sample_counts = p.limits.framebufferColorSampleCounts;
+  l.depth_sample_counts = p.limits.framebufferDepthSampleCounts;
+  l.sampled_color_sample_counts = p.limits.sampledImageColorSampleCounts;
+  l.sampled_depth_sample_counts = p.limits.sampledImageDepthSampleCounts;
+  // VkResolveModeFlagBits: SAMPLE_ZERO 1, AVERAGE 2, MIN 4, MAX 8 -- ResolveMode's order.
+  l.depth_resolve_modes = resolve.supportedDepthResolveModes & 0xF;
+  VkPhysicalDeviceFeatures supported{};
+  vkGetPhysicalDeviceFeatures(pd, &supported);
+  l.max_sampler_anisotropy = supported.samplerAnisotropy ? p.limits.maxSamplerAnisotropy : 1.0f;
+  // lavapipe (Mesa 25.0) returns black through an anisotropic sampler where the texture
+  // coordinates have zero derivatives -- a mesh with one UV everywhere, a texel pinned by its
+  // UVs (test_msaa: "trilinear and anisotropic samplers read a constant mip chain"); weft keeps
+  // anisotropy off there (trilinear only) rather than draw such meshes black.
+  if (driver.driverID == VK_DRIVER_ID_MESA_LLVMPIPE) l.max_sampler_anisotropy = 1.0f;
   info.features = detect_features(pd);
   return info;
 }
@@ -389,6 +404,12 @@ Device Device::create_declaring(std::string label) {
   shared->info.limits.min_uniform_buffer_offset_alignment = 256;
   shared->info.limits.min_storage_buffer_offset_alignment = 256;
   shared->info.limits.max_compute_shared_memory = 16384;
+  // Vulkan guarantees 1 and 4 samples for colour and depth attachments and sampled images,
+  // and the sample-zero depth resolve; anisotropy is optional (1: off).
+  shared->info.limits.color_sample_counts = shared->info.limits.depth_sample_counts = 1 | 4;
+  shared->info.limits.sampled_color_sample_counts = shared->info.limits.sampled_depth_sample_counts = 1 | 4;
+  shared->info.limits.depth_resolve_modes = 1;
+  shared->info.limits.max_sampler_anisotropy = 1.0f;
   Device device;
   device.shared_ = shared;
   device.queue_.device_ = shared;

@@ -7,6 +7,7 @@ module;
 #include <cstdint>
 #include <string_view>
 #include <algorithm>
+#include <bit>
 #include <memory>
 #include <string>
 #include <vector>
@@ -307,6 +308,27 @@ Result<RenderPipeline> Device::create_render_pipeline(const RenderPipelineDescri
   if (desc.depth_stencil && !format_info(desc.depth_stencil->format).depth)
     return fail(ErrorKind::InvalidArgument, "render pipeline '{}': {} is not a depth format", desc.label,
                 to_string(desc.depth_stencil->format));
+  const MultisampleState& ms = desc.multisample;
+  {
+    const Limits& l = shared_->info.limits;
+    std::uint32_t counts = desc.color_targets.empty() ? ~0u : l.color_sample_counts;
+    if (desc.depth_stencil) counts &= l.depth_sample_counts;
+    if (std::popcount(ms.count) != 1 || !(counts & ms.count))
+      return fail(ErrorKind::InvalidArgument, "render pipeline '{}': {} samples; adapter '{}' renders {} with {}",
+                  desc.label, ms.count, shared_->info.name,
+                  desc.depth_stencil && !desc.color_targets.empty() ? "colour and depth"
+                  : desc.depth_stencil                               ? "depth"
+                                                                     : "colour",
+                  sample_counts_text(counts));
+    if (ms.alpha_to_coverage && ms.count == 1)
+      return fail(ErrorKind::InvalidArgument,
+                  "render pipeline '{}': alpha-to-coverage needs a multisampled target (count is 1); "
+                  "discard by alpha instead, or render with MSAA",
+                  desc.label);
+    if (ms.alpha_to_coverage && desc.color_targets.empty())
+      return fail(ErrorKind::InvalidArgument, "render pipeline '{}': alpha-to-coverage needs a colour target (its alpha)",
+                  desc.label);
+  }
 
   std::vector<VkPipelineShaderStageCreateInfo> stages;
   stages.push_back({VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_VERTEX_BIT,
@@ -352,7 +374,10 @@ Result<RenderPipeline> Device::create_render_pipeline(const RenderPipelineDescri
     raster.depthBiasSlopeFactor = desc.depth_stencil->depth_bias_slope;
   }
   VkPipelineMultisampleStateCreateInfo multisample{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
-  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  multisample.rasterizationSamples = VkSampleCountFlagBits(ms.count);
+  const VkSampleMask sample_mask = ms.mask;
+  multisample.pSampleMask = &sample_mask;
+  multisample.alphaToCoverageEnable = ms.alpha_to_coverage ? VK_TRUE : VK_FALSE;
   VkPipelineDepthStencilStateCreateInfo depth{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
   if (desc.depth_stencil) {
     depth.depthTestEnable = VK_TRUE;
@@ -424,6 +449,7 @@ Result<RenderPipeline> Device::create_render_pipeline(const RenderPipelineDescri
   pipeline.label_ = desc.label;
   for (const auto& t : desc.color_targets) pipeline.color_formats_.push_back(t.format);
   pipeline.depth_format_ = desc.depth_stencil ? desc.depth_stencil->format : Format::Undefined;
+  pipeline.sample_count_ = ms.count;
   if (shared_->declaring()) return pipeline;
   if (VkResult r = vkCreateGraphicsPipelines(shared_->device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline.pipeline_);
       r != VK_SUCCESS)
@@ -440,6 +466,7 @@ RenderPipeline& RenderPipeline::operator=(RenderPipeline&& o) noexcept {
   std::swap(push_constant_size_, o.push_constant_size_);
   std::swap(color_formats_, o.color_formats_);
   std::swap(depth_format_, o.depth_format_);
+  std::swap(sample_count_, o.sample_count_);
   std::swap(label_, o.label_);
   return *this;
 }

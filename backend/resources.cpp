@@ -6,6 +6,7 @@ module;
 #include <cstdint>
 #include <string_view>
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <optional>
 #include <cstring>
@@ -297,13 +298,30 @@ Result<VkImageCreateInfo> image_info(const TextureDescriptor& desc, const Adapte
                 desc.mip_level_count, desc.size.width, desc.size.height, max_mips);
   if (desc.dimension == TextureDimension::Cube && (desc.size.depth_or_layers != 6 || desc.size.width != desc.size.height))
     return fail(ErrorKind::InvalidArgument, "texture '{}': a cube texture needs 6 square layers", desc.label);
+  if (desc.sample_count != 1) {
+    const Limits& l = adapter.limits;
+    std::uint32_t counts = fi.depth ? l.depth_sample_counts : l.color_sample_counts;
+    if (has(desc.usage, TextureUsage::Sampled)) counts &= fi.depth ? l.sampled_depth_sample_counts : l.sampled_color_sample_counts;
+    if (std::popcount(desc.sample_count) != 1 || !(counts & desc.sample_count))
+      return fail(ErrorKind::InvalidArgument, "texture '{}': {} samples; adapter '{}' has {} for a {} {}{} texture",
+                  desc.label, desc.sample_count, adapter.name, sample_counts_text(counts), fi.depth ? "depth" : "colour",
+                  fi.name, has(desc.usage, TextureUsage::Sampled) ? " sampled" : "");
+    if (desc.mip_level_count != 1 || (desc.dimension != TextureDimension::D2 && desc.dimension != TextureDimension::D2Array))
+      return fail(ErrorKind::InvalidArgument,
+                  "texture '{}': {} samples need a 2D texture with one mip level (has {} mips, {})", desc.label,
+                  desc.sample_count, desc.mip_level_count,
+                  desc.dimension == TextureDimension::Cube ? "cube" : desc.dimension == TextureDimension::D3 ? "3D" : "2D");
+    if (has(desc.usage, TextureUsage::Storage))
+      return fail(ErrorKind::InvalidArgument, "texture '{}': a multisampled texture ({} samples) cannot be a storage image",
+                  desc.label, desc.sample_count);
+  }
   VkImageCreateInfo info{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
   info.imageType = desc.dimension == TextureDimension::D3 ? VK_IMAGE_TYPE_3D : VK_IMAGE_TYPE_2D;
   info.format = detail::to_vk(desc.format);
   info.extent = {desc.size.width, desc.size.height, desc.dimension == TextureDimension::D3 ? desc.size.depth_or_layers : 1};
   info.mipLevels = desc.mip_level_count;
   info.arrayLayers = desc.dimension == TextureDimension::D3 ? 1 : desc.size.depth_or_layers;
-  info.samples = VK_SAMPLE_COUNT_1_BIT;
+  info.samples = VkSampleCountFlagBits(desc.sample_count);
   info.tiling = VK_IMAGE_TILING_OPTIMAL;
   info.usage = detail::to_vk(desc.usage);
   // Sampled depth lives in the read-only depth layout, which Vulkan allows only on images
@@ -459,6 +477,14 @@ Result<Sampler> Device::create_sampler(const SamplerDescriptor& desc) {
   };
   if (!(desc.max_lod >= 0.0f))
     return fail(ErrorKind::InvalidArgument, "sampler '{}': max_lod {} must be >= 0", desc.label, desc.max_lod);
+  if (!(desc.max_anisotropy >= 1.0f) || !std::isfinite(desc.max_anisotropy))
+    return fail(ErrorKind::InvalidArgument, "sampler '{}': max_anisotropy {} must be a number >= 1 (1 is off)",
+                desc.label, desc.max_anisotropy);
+  const float anisotropy = std::min(desc.max_anisotropy, shared_->info.limits.max_sampler_anisotropy);
+  if (anisotropy > 1.0f && (desc.min_filter != FilterMode::Linear || desc.mag_filter != FilterMode::Linear ||
+                            desc.mipmap_filter != FilterMode::Linear))
+    return fail(ErrorKind::InvalidArgument, "sampler '{}': anisotropic filtering ({}) needs linear filters", desc.label,
+                desc.max_anisotropy);
   VkSamplerCreateInfo info{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
   info.magFilter = filter(desc.mag_filter);
   info.minFilter = filter(desc.min_filter);
@@ -468,6 +494,8 @@ Result<Sampler> Device::create_sampler(const SamplerDescriptor& desc) {
   info.compareEnable = desc.compare.has_value();
   info.compareOp = desc.compare ? to_vk(*desc.compare) : VK_COMPARE_OP_ALWAYS;
   info.maxLod = desc.max_lod;
+  info.anisotropyEnable = anisotropy > 1.0f;
+  info.maxAnisotropy = anisotropy;
   info.borderColor = VK_BORDER_COLOR_FLOAT_OPAQUE_WHITE;
   Sampler sampler;
   sampler.device_ = shared_;

@@ -84,6 +84,17 @@ vec3 evaluate_irradiance_sh(vec4 sh[9], vec3 n) {
   return max(e, vec3(0.0));
 }
 
+// The environment seen in direction r by a glossy reflection of this roughness: the map's mip
+// level whose texels are about as wide as the lobe (GGX alpha = roughness^2, in radians), so a
+// rough surface reflects a blurred sky, not a sharp mirror of its texels (which 8-bit normal
+// maps then band). An explicit level: the seam of the equirectangular map has no derivative.
+vec3 environment_glossy(sampler2D map, vec3 r, float rotation, float roughness) {
+  float alpha = max(roughness * roughness, 1e-4);
+  float texels = float(textureSize(map, 0).x) * alpha / (2.0 * PI);
+  float lod = clamp(log2(max(texels, 1.0)), 0.0, float(textureQueryLevels(map) - 1));
+  return textureLod(map, equirect_uv(r, rotation), lod).rgb;
+}
+
 vec3 linear_to_srgb(vec3 c) {
   c = clamp(c, 0.0, 1.0);
   return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));

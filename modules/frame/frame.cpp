@@ -123,4 +123,34 @@ mat4 perspective_vk(float fov, float aspect, float near_plane, float far_plane) 
   return p;
 }
 
+namespace {
+// The radical inverse of i in `base`: the i-th point of the van der Corput sequence in [0, 1).
+float radical_inverse(std::uint32_t i, std::uint32_t base) {
+  double inverse_base = 1.0 / base, scale = inverse_base, value = 0.0;
+  while (i > 0) {
+    value += double(i % base) * scale;
+    i /= base;
+    scale *= inverse_base;
+  }
+  return float(value);
+}
+}  // namespace
+
+vec2 sample_jitter(std::uint32_t index) {
+  if (index == 0) return vec2(0.0f);
+  return vec2(radical_inverse(index, 2), radical_inverse(index, 3)) - 0.5f;
+}
+
+mat4 jitter_projection(const mat4& projection, vec2 jitter, std::uint32_t width, std::uint32_t height) {
+  if (width == 0 || height == 0) return projection;
+  // NDC x' = x + dx: clip x' = clip x + dx * clip w, i.e. row 0 of the matrix gains dx * row 3.
+  const float dx = 2.0f * jitter.x / float(width), dy = 2.0f * jitter.y / float(height);
+  mat4 p = projection;
+  for (int column = 0; column < 4; ++column) {
+    p[column][0] += dx * p[column][3];
+    p[column][1] += dy * p[column][3];
+  }
+  return p;
+}
+
 }  // namespace weft::frame

@@ -46,6 +46,45 @@ Result<gpu::RenderPipeline> create_lit_mesh_pipeline(gpu::Device& device, std::s
                                                      gpu::Format depth_format,
                                                      gpu::VertexBufferLayout vertices = vertex_layout());
 
+// ---- multisampling ------------------------------------------------------------------------
+
+// A render pipeline in each sample count the frames that use it draw with (1 without MSAA).
+// The descriptor and its shaders are kept; the 1-sample pipeline is made at once (so its
+// errors come at creation), the others the first time a frame asks. The passes that draw
+// into the scene colour hold theirs in one and bind at(device, ScenePassDraw::samples).
+// Copies share one set of pipelines; at() is thread-safe.
+class PipelineSamples {
+ public:
+  // `desc.layout`, `desc.vertex` and `desc.fragment` are set to the kept layout and modules
+  // (the pipelines of other counts are made later, from them). With alpha_to_coverage the
+  // multisampled pipelines turn the fragment's alpha into coverage (the 1-sample one cannot:
+  // its shader must test alpha itself).
+  static Result<PipelineSamples> create(gpu::Device& device, std::shared_ptr<const gpu::PipelineLayout> layout,
+                                        gpu::RenderPipelineDescriptor desc,
+                                        gpu::ShaderModule vertex, std::optional<gpu::ShaderModule> fragment,
+                                        bool alpha_to_coverage = false);
+  // The pipeline for attachments of `samples` samples.
+  Result<const gpu::RenderPipeline*> at(gpu::Device& device, std::uint32_t samples) const;
+  [[nodiscard]] const gpu::RenderPipeline& single_sample() const;
+  [[nodiscard]] bool alpha_to_coverage() const;
+
+ private:
+  struct State;
+  std::shared_ptr<State> state_;
+};
+
+// What create_lit_mesh_pipeline makes, as a descriptor without shaders.
+gpu::RenderPipelineDescriptor lit_mesh_pipeline_descriptor(std::string label, const gpu::PipelineLayout& layout,
+                                                           gpu::Format color_format, gpu::Format depth_format,
+                                                           gpu::VertexBufferLayout vertices = vertex_layout());
+// The lit-mesh pipeline in every sample count (into the scene colour and depth formats).
+Result<PipelineSamples> create_lit_mesh_pipelines(gpu::Device& device, std::string label,
+                                                  std::shared_ptr<const gpu::PipelineLayout> layout,
+                                                  gpu::ShaderModule vertex,
+                                                  gpu::ShaderModule fragment,
+                                                  gpu::VertexBufferLayout vertices = vertex_layout(),
+                                                  bool alpha_to_coverage = false);
+
 // The sampler a lit pass reads the shadow map through (sampler2DShadow): a less-or-equal
 // depth comparison, linearly filtered, level 0 only.
 Result<gpu::Sampler> create_shadow_compare_sampler(gpu::Device& device, std::string label);
@@ -124,6 +163,15 @@ struct FrameUniforms {
 };
 static_assert(sizeof(FrameUniforms) % 16 == 0);
 
+// The sub-pixel offset of sample `index` of a temporally accumulated view, in pixels within
+// [-0.5, 0.5): none for sample 0 (the pixel centre: the frame without accumulation), then the
+// points of the Halton (2, 3) sequence -- low discrepancy, so every prefix covers the pixel
+// evenly and N samples converge towards an N-sample box-filtered supersampling.
+vec2 sample_jitter(std::uint32_t index);
+// `projection` moved by `jitter` pixels (x right, y down in the image) on a width x height
+// target, in clip space, so every pass that draws with the matrix moves with it.
+mat4 jitter_projection(const mat4& projection, vec2 jitter, std::uint32_t width, std::uint32_t height);
+
 // Order-2 spherical harmonics of the cosine-convolved radiance of an equirectangular map
 // (Ramamoorthi & Hanrahan 2001): E(n) = sum c_i Y_i(n). `rgb` is width*height*3 floats.
 std::array<vec4, 9> irradiance_sh(std::span<const float> rgb, std::uint32_t width, std::uint32_t height,
@@ -183,6 +231,9 @@ struct ScenePassDesc {
   // The first lit pass of a frame (forward): creates the scene colour and depth, cleared to
   // this colour and the far plane, instead of loading the blackboard's.
   std::optional<vec4> clear_color;
+  // With clear_color: the sample count of the colour and depth it creates (MSAA); the later
+  // lit passes draw with the count of what they load.
+  std::uint32_t samples = 1;
 };
 
 // What the draw callback gets: the render pass already begun on the scene colour and depth
@@ -194,6 +245,7 @@ struct ScenePassDraw {
   const gpu::Buffer& uniforms;
   const gpu::TextureView& shadow_map;
   const gpu::TextureView* environment = nullptr;  // when reads_environment
+  std::uint32_t samples = 1;  // the colour and depth's sample count: bind pipelines made for it
 };
 using DrawScene = std::function<void(ScenePassDraw& draw)>;
 
@@ -202,6 +254,17 @@ using DrawScene = std::function<void(ScenePassDraw& draw)>;
 // `draw` inside one render pass, and puts the new colour and depth versions back. A lit
 // pass keeps only its pipeline and draw loop. Errors: a missing shared target.
 Result<void> add_scene_color_pass(RenderGraph& graph, ScenePassDesc desc, DrawScene draw);
+
+// The sample count of the scene colour on the blackboard (1 when there is none yet).
+std::uint32_t scene_sample_count(const RenderGraph& graph);
+
+// A single-sample copy of a multisampled texture in a new transient `name` of its format and
+// size (colour: the average of the samples, a transfer; depth: `depth_mode`, a render pass
+// with `source` read-only). `source` is only read, so several passes may resolve one version
+// while others still draw into it. Returns the resolved handle. weft.pipeline's runner inserts
+// one where a multisampled output feeds an input that reads texels.
+Result<TextureHandle> add_resolve_pass(RenderGraph& graph, std::string name, TextureHandle source,
+                                       gpu::ResolveMode depth_mode = gpu::ResolveMode::SampleZero);
 
 // SPIR-V of shaders/fullscreen.vert: one triangle over the screen at the far plane, `uv` out.
 std::span<const std::uint32_t> fullscreen_vertex_spirv();

@@ -42,7 +42,7 @@ void draw_fullscreen(PassContext& context, const FullscreenPipeline& pipeline, s
                      const gpu::Sampler& sampler, const gpu::Buffer* uniforms, std::span<const std::byte> push) {
   std::vector<gpu::BindGroupEntry> entries;
   for (std::uint32_t i = 0; i < textures.size(); ++i) entries.push_back(gpu::bind(i, *textures[i], &sampler));
-  if (uniforms) entries.push_back(gpu::bind(std::uint32_t(textures.size()), *uniforms));
+  if (uniforms && pipeline.uniforms) entries.push_back(gpu::bind(std::uint32_t(textures.size()), *uniforms));
   auto group = context.device().create_bind_group(
       {.label = std::string(label), .layout = &pipeline.bind_layout, .entries = std::move(entries)});
   if (!group) return context.encoder().report_error(group.error());

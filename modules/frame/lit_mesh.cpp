@@ -14,14 +14,11 @@ Result<gpu::RenderPipeline> create_lit_mesh_pipeline(gpu::Device& device, std::s
                                                      const gpu::PipelineLayout& layout, const gpu::ShaderModule& vertex,
                                                      const gpu::ShaderModule& fragment, gpu::Format color_format,
                                                      gpu::Format depth_format, gpu::VertexBufferLayout vertices) {
-  return device.create_render_pipeline({.label = std::move(label),
-                                        .layout = &layout,
-                                        .vertex = &vertex,
-                                        .fragment = &fragment,
-                                        .vertex_buffers = {std::move(vertices)},
-                                        .cull_mode = gpu::CullMode::None,
-                                        .color_targets = {{color_format}},
-                                        .depth_stencil = gpu::DepthStencilState{.format = depth_format}});
+  gpu::RenderPipelineDescriptor desc =
+      lit_mesh_pipeline_descriptor(std::move(label), layout, color_format, depth_format, std::move(vertices));
+  desc.vertex = &vertex;
+  desc.fragment = &fragment;
+  return device.create_render_pipeline(desc);
 }
 
 Result<gpu::Sampler> create_shadow_compare_sampler(gpu::Device& device, std::string label) {

@@ -44,6 +44,13 @@ Result<SceneTargets> scene_targets(const Blackboard& board, SceneTargetNeeds nee
   return t;
 }
 
+std::uint32_t scene_sample_count(const RenderGraph& graph) {
+  const auto color = graph.blackboard().find<TextureHandle>(color_key);
+  if (!color || !*color) return 1;
+  const auto desc = graph.texture_desc(*color);
+  return desc ? desc->sample_count : 1;
+}
+
 void put_scene_targets(Blackboard& board, const SceneTargets& t) {
   if (t.uniforms) board.put(uniforms_key, t.uniforms);
   if (t.environment) board.put(environment_key, t.environment);
@@ -78,6 +85,7 @@ Result<void> add_scene_color_pass(RenderGraph& graph, ScenePassDesc desc, DrawSc
   };
   const bool environment = desc.reads_environment;
   const std::optional<vec4> clear = desc.clear_color;
+  const std::uint32_t samples = clear ? desc.samples : scene_sample_count(graph);
   auto& data = graph.add_pass<Data>(
       desc.name,
       [&](PassBuilder& b, Data& d) {
@@ -87,13 +95,16 @@ Result<void> add_scene_color_pass(RenderGraph& graph, ScenePassDesc desc, DrawSc
         for (const auto& [texture, handle] : textures) b.read(handle, TextureUse::Sampled);
         for (const auto& [buffer, handle] : buffers) b.read(handle, BufferUse::StorageRead);
         const TextureHandle color =
-            clear ? b.create_texture(color_key, {.size = RelativeSize{1.0f}, .format = scene_color_format}) : shared.color;
+            clear ? b.create_texture(color_key, {.size = RelativeSize{1.0f}, .format = scene_color_format, .sample_count = samples})
+                  : shared.color;
         const TextureHandle depth =
-            clear ? b.create_texture(depth_key, {.size = RelativeSize{1.0f}, .format = scene_depth_format}) : shared.depth;
+            clear ? b.create_texture(depth_key, {.size = RelativeSize{1.0f}, .format = scene_depth_format, .sample_count = samples})
+                  : shared.depth;
         d.targets.color = b.write(color, TextureUse::ColorAttachment);
         d.targets.depth = b.write(depth, TextureUse::DepthAttachment);
       },
-      [name = desc.name, clear, draw_scene = std::move(draw)](const PassResources& res, const Data& d, PassContext& ctx) {
+      [name = desc.name, clear, samples, draw_scene = std::move(draw)](const PassResources& res, const Data& d,
+                                                                        PassContext& ctx) {
         const gpu::LoadOp load = clear ? gpu::LoadOp::Clear : gpu::LoadOp::Load;
         auto pass = ctx.encoder().begin_render_pass(
             {.label = name,
@@ -104,7 +115,8 @@ Result<void> add_scene_color_pass(RenderGraph& graph, ScenePassDesc desc, DrawSc
                             .context = ctx,
                             .uniforms = res.buffer(d.targets.uniforms),
                             .shadow_map = res.view(d.targets.shadow_map),
-                            .environment = d.targets.environment ? &res.view(d.targets.environment) : nullptr};
+                            .environment = d.targets.environment ? &res.view(d.targets.environment) : nullptr,
+                            .samples = samples};
         draw_scene(scene);
         pass.end();
       });

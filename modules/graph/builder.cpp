@@ -74,6 +74,7 @@ void GraphData::clear() {
   current_pass = invalid_index;
   backward_edges = false;
   maybe_unwritten_read = false;
+  multisampled = false;
   previous = nullptr;
   arena.reset();
 }
@@ -255,9 +256,15 @@ std::uint32_t declare_any(GraphData& g, std::uint32_t pass, ResourceType type, s
 }  // namespace
 
 void report_texture_desc(GraphData& g, std::uint32_t resource, const TextureDesc& desc, std::string_view pass_name) {
+  if (desc.sample_count != 1) g.multisampled = true;
   std::string problem;
   if (desc.format == gpu::Format::Undefined) problem = "an undefined format";
   else if (desc.mip_level_count == 0) problem = "zero mip levels";
+  else if (std::popcount(desc.sample_count) != 1 || desc.sample_count > 64)
+    problem = weft::format("{} samples (a power of two from 1 to 64)", desc.sample_count);
+  else if (desc.sample_count > 1 && desc.mip_level_count != 1)
+    problem = weft::format("{} samples and {} mip levels (a multisampled texture has one)", desc.sample_count,
+                           desc.mip_level_count);
   else if (!desc.size.is_relative && (desc.size.absolute.width == 0 || desc.size.absolute.height == 0 ||
                                       desc.size.absolute.depth_or_layers == 0))
     problem = weft::format("a zero size ({})", format_extent(desc.size.absolute));
@@ -276,7 +283,10 @@ namespace {
 
 void check_texture_desc(GraphData& g, std::uint32_t resource, const TextureDesc& desc, std::string_view pass_name) {
   const gpu::Extent3D& e = desc.size.absolute;
+  if (desc.sample_count != 1) g.multisampled = true;
   const bool valid = desc.format != gpu::Format::Undefined && desc.mip_level_count != 0 &&
+                     (desc.sample_count == 1 || (std::popcount(desc.sample_count) == 1 && desc.sample_count <= 64 &&
+                                                 desc.mip_level_count == 1)) &&
                      (desc.size.is_relative ? desc.size.relative.width > 0.0f && desc.size.relative.height > 0.0f
                                             : e.width != 0 && e.height != 0 && e.depth_or_layers != 0);
   if (!valid) report_texture_desc(g, resource, desc, pass_name);
@@ -493,6 +503,7 @@ TextureHandle RenderGraph::import_texture(std::string_view name, const gpu::Text
   r.texture_desc.format = desc.format;
   r.texture_desc.mip_level_count = desc.mip_level_count;
   r.texture_desc.dimension = desc.dimension;
+  r.texture_desc.sample_count = desc.sample_count;
   r.imported_texture_usage = desc.usage;
   detail::check_texture_desc(*data_, index, r.texture_desc, {});
   return {index, 0};
@@ -544,6 +555,7 @@ void RenderGraph::mark_output(BufferHandle handle, gpu::Access final_state) {
 }
 
 Blackboard& RenderGraph::blackboard() { return data_->blackboard; }
+const Blackboard& RenderGraph::blackboard() const { return data_->blackboard; }
 const std::string& RenderGraph::name() const { return data_->name; }
 std::size_t RenderGraph::pass_count() const { return data_->passes.size(); }
 std::size_t RenderGraph::resource_count() const { return data_->resources.size(); }

@@ -123,6 +123,7 @@ class Scheduler {
     }
     move_errors(usage_errors);
     check_attachments();
+    if (g_.multisampled) check_sample_counts();
   }
 
  private:
@@ -220,6 +221,7 @@ class Scheduler {
         info.format = d.format;
         info.mip_level_count = d.mip_level_count;
         info.dimension = d.dimension;
+        info.sample_count = d.sample_count;
         info.texture_usage = d.extra_usage | texture_usage_of(node.uses);
         if (node.uses != 0) {
           // Transients repeat (format, uses, final state): one that checked clean before
@@ -609,6 +611,55 @@ class Scheduler {
     }
     if (out.empty()) out.push_back("?");
     return out;
+  }
+
+  // Only in graphs with a multisampled texture: a pass's multisampled attachments share one
+  // count (a single-sample attachment beside them is their resolve target, which the render
+  // pass checks when it is recorded), and no pass reads a multisampled texture per texel.
+  void check_sample_counts() {
+    constexpr std::uint16_t per_texel_uses = use_bit(TextureUse::Sampled) | use_bit(TextureUse::StorageRead) |
+                                             use_bit(TextureUse::StorageWrite) | texture_copy_uses;
+    for (std::uint32_t p = 0; p < s_.pass_count; ++p) {
+      const PassNode& pass = g_.passes[p];
+      std::uint32_t first = invalid_index;
+      // A resolve (gpu::CommandEncoder::resolve_texture) reads a multisampled texture as a copy
+      // source into a single-sample copy destination of the same pass.
+      bool single_sample_copy_dst = false;
+      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+        const AccessNode& a = g_.accesses[i];
+        single_sample_copy_dst |= a.texture && (a.uses & use_bit(TextureUse::CopyDst)) &&
+                                  g_.resources[a.resource].texture_desc.sample_count == 1;
+      }
+      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+        const AccessNode& a = g_.accesses[i];
+        if (!a.texture) continue;
+        const std::uint32_t samples = g_.resources[a.resource].texture_desc.sample_count;
+        if (samples == 1) continue;
+        if (a.uses == use_bit(TextureUse::CopySrc) && single_sample_copy_dst) continue;  // a resolve
+        if (a.uses & per_texel_uses) {
+          const bool sampled = a.uses & use_bit(TextureUse::Sampled);
+          error(GraphErrorKind::SampleCount,
+                weft::format("pass '{}': {} {} ({} samples) {}; resolve it into a single-sample texture first (a "
+                             "render pass's resolve target beside it)",
+                             pass.name, sampled ? "samples" : "copies or stores", g_.describe(a.resource), samples,
+                             sampled ? "as one value per texel" : "texel by texel"),
+                {pass_name(p)}, {resource_name(a.resource)});
+          continue;
+        }
+        if (!(a.uses & attachment_uses)) continue;
+        if (first == invalid_index) {
+          first = a.resource;
+          continue;
+        }
+        const std::uint32_t first_samples = g_.resources[first].texture_desc.sample_count;
+        if (first_samples != samples)
+          error(GraphErrorKind::SampleCount,
+                weft::format("pass '{}': attachments {} has {} samples and {} has {}; a render pass's multisampled "
+                             "attachments share one sample count",
+                             pass.name, g_.describe(first), first_samples, g_.describe(a.resource), samples),
+                {pass_name(p)}, {resource_name(first), resource_name(a.resource)});
+      }
+    }
   }
 
   // Only passes whose attachments setup saw declared with different sizes can differ once

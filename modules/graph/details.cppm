@@ -178,6 +178,7 @@ inline void set_texture_desc(TextureDesc& to, const TextureDesc& from) {
   to.mip_level_count = from.mip_level_count;
   to.dimension = from.dimension;
   to.extra_usage = from.extra_usage;
+  to.sample_count = from.sample_count;
 }
 
 // One version of one resource; versions of a resource link backwards through `previous`.
@@ -241,6 +242,7 @@ struct GraphData {
   // see a version nobody wrote; compile() takes its slow paths only then.
   bool backward_edges = false;
   bool maybe_unwritten_read = false;
+  bool multisampled = false;  // some texture has more than one sample: compile checks counts
   // Last frame's declarations (the other set of arrays reset() alternates with), which a
   // compiled plan may be reused for; null when there is no last frame.
   GraphData* previous = nullptr;

@@ -23,6 +23,7 @@ std::string_view to_string(GraphErrorKind kind) {
     case GraphErrorKind::ConflictingUsage: return "conflicting usage";
     case GraphErrorKind::InvalidDescriptor: return "invalid descriptor";
     case GraphErrorKind::WrongPassKind: return "wrong pass kind";
+    case GraphErrorKind::SampleCount: return "sample count";
     case GraphErrorKind::Memory: return "memory";
   }
   return "?";

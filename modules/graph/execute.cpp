@@ -186,7 +186,7 @@ Result<void> realize(GraphData& graph, CompiledState& s, gpu::Device& device) {
     if (info.type == ResourceType::Texture) {
       auto texture = device.create_texture(gpu::TextureDescriptor{std::string(info.name), info.extent, info.format,
                                                                   info.texture_usage, info.mip_level_count,
-                                                                  info.dimension},
+                                                                  info.dimension, info.sample_count},
                                            placement);
       if (!texture) return with_context(weft::format("render graph '{}'", graph.name), texture.error());
       real->textures[r].emplace(std::move(*texture));

@@ -55,7 +55,7 @@ struct Alignment {
 
 gpu::TextureDescriptor texture_descriptor(const ResourceInfo& r) {
   return gpu::TextureDescriptor{std::string(r.name), r.extent, r.format, r.texture_usage, r.mip_level_count,
-                                r.dimension};
+                                r.dimension, r.sample_count};
 }
 
 }  // namespace
@@ -549,7 +549,7 @@ gpu::MemoryRequirements estimate_requirements(const ResourceInfo& r) {
   std::uint64_t w = r.extent.width, h = r.extent.height;
   const std::uint64_t layers = std::max(1u, r.extent.depth_or_layers) * (r.dimension == gpu::TextureDimension::Cube ? 6 : 1);
   for (std::uint32_t m = 0; m < std::max(1u, r.mip_level_count); ++m) {
-    bytes += w * h * layers * texel;
+    bytes += w * h * layers * texel * std::max(1u, r.sample_count);
     w = std::max<std::uint64_t>(1, w / 2);
     h = std::max<std::uint64_t>(1, h / 2);
   }
@@ -595,11 +595,13 @@ class Sizer {
     if (estimating_ && texture) {
       if (!have_last_ || info.extent.width != last_.extent.width || info.extent.height != last_.extent.height ||
           info.extent.depth_or_layers != last_.extent.depth_or_layers || info.format != last_.format ||
-          info.mip_level_count != last_.mip_level_count || info.dimension != last_.dimension) [[unlikely]] {
+          info.mip_level_count != last_.mip_level_count || info.dimension != last_.dimension ||
+          info.sample_count != last_.sample_count) [[unlikely]] {
         last_.extent = info.extent;
         last_.format = info.format;
         last_.mip_level_count = info.mip_level_count;
         last_.dimension = info.dimension;
+        last_.sample_count = info.sample_count;
         last_requirements_ = estimate_requirements(info);
         last_alignment_ = Alignment(last_requirements_.alignment);
         have_last_ = true;

@@ -208,6 +208,7 @@ class RenderGraph {
   void mark_output(BufferHandle handle, gpu::Access final_state = gpu::Access::Undefined);
 
   [[nodiscard]] Blackboard& blackboard();
+  [[nodiscard]] const Blackboard& blackboard() const;
   [[nodiscard]] const std::string& name() const;
   [[nodiscard]] std::size_t pass_count() const;
   [[nodiscard]] std::size_t resource_count() const;
@@ -284,7 +285,9 @@ namespace weft {
   const std::uint32_t index = detail::add_resource(*graph_, name, ResourceType::Texture, pass_);
   detail::set_texture_desc(graph_->resources[index].texture_desc, desc);
   const gpu::Extent3D& e = desc.size.absolute;
-  const bool valid = desc.format != gpu::Format::Undefined && desc.mip_level_count != 0 &&
+  // A multisampled texture takes the out-of-line path too (it marks the graph for compile's
+  // sample-count checks).
+  const bool valid = desc.format != gpu::Format::Undefined && desc.mip_level_count != 0 && desc.sample_count == 1 &&
                      (desc.size.is_relative ? desc.size.relative.width > 0.0f && desc.size.relative.height > 0.0f
                                             : e.width != 0 && e.height != 0 && e.depth_or_layers != 0);
   if (!valid) [[unlikely]]

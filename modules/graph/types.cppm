@@ -140,6 +140,10 @@ struct TextureDesc {
   gpu::TextureDimension dimension = gpu::TextureDimension::D2;
   // Usages beyond the declared ones (the declared uses add theirs automatically).
   gpu::TextureUsage extra_usage = gpu::TextureUsage::None;
+  // MSAA: a multisampled texture is an attachment (every multisampled attachment of a pass
+  // has the same count) and is read through a single-sample resolve target a render pass
+  // writes beside it (gpu::ColorAttachment::resolve_target), never sampled directly.
+  std::uint32_t sample_count = 1;
 };
 
 struct BufferDesc {
@@ -161,6 +165,7 @@ enum class GraphErrorKind : std::uint8_t {
   ConflictingUsage,           // one pass uses one resource two incompatible ways
   InvalidDescriptor,          // zero sizes, relative size without an output extent, ...
   WrongPassKind,              // a declared pass kind that its uses contradict
+  SampleCount,                // multisampled attachments that differ, or a multisampled texture read per texel
   Memory,                     // the device refused to size or place a transient resource
 };
 std::string_view to_string(GraphErrorKind kind);
@@ -251,6 +256,7 @@ struct ResourceInfo {
   gpu::Format format = gpu::Format::Undefined;
   std::uint32_t mip_level_count = 1;
   gpu::TextureDimension dimension = gpu::TextureDimension::D2;
+  std::uint32_t sample_count = 1;
   gpu::TextureUsage texture_usage = gpu::TextureUsage::None;  // derived from every declared use
   std::uint64_t buffer_size = 0;
   gpu::BufferUsage buffer_usage = gpu::BufferUsage::None;

@@ -124,6 +124,27 @@ enum class ExrPixelType : std::uint8_t { Float32, Half };
 // gives an empty one.
 [[nodiscard]] Image luminance(const Image& image);
 
+// ---- mip chains ------------------------------------------------------------------------
+// What the texels of an RGBA8 texture mean, for averaging them into smaller levels.
+enum class MipContent : std::uint8_t {
+  Srgb,       // sRGB-encoded colour (alpha linear): averaged in linear light, then encoded
+  Linear,     // data (roughness, metalness, occlusion): averaged as stored
+  NormalMap,  // tangent-space normals (rgb = n * 0.5 + 0.5): averaged, then renormalised
+};
+// The mip chain of a tightly packed RGBA8 image of width x height: level 0 (a copy of
+// `rgba`) down to 1x1, each texel the average of the 2x2 texels above it (on an odd side the
+// last row or column is averaged in with its neighbour, so no texel is dropped). Empty when
+// the size is zero or `rgba` is not width * height * 4 bytes.
+[[nodiscard]] std::vector<std::vector<std::uint8_t>> rgba8_mip_chain(std::span<const std::uint8_t> rgba,
+                                                                      std::uint32_t width, std::uint32_t height,
+                                                                      MipContent content);
+// The same chain of a tightly packed RGBA float image (linear radiance: an environment map),
+// averaged as stored. Empty when the size is zero or `rgba` is not width * height * 4 floats.
+[[nodiscard]] std::vector<std::vector<float>> rgba32f_mip_chain(std::span<const float> rgba, std::uint32_t width,
+                                                                std::uint32_t height);
+// 1 + floor(log2(max(width, height))): the levels of a full chain.
+[[nodiscard]] std::uint32_t full_mip_count(std::uint32_t width, std::uint32_t height);
+
 // ---- metrics ---------------------------------------------------------------------------
 // Both images must be valid, the same width, height and channels (else InvalidArgument
 // naming both sizes) and finite. Sums run in double, so float extremes stay finite.

@@ -100,6 +100,10 @@ struct Slot {
   // Inputs: the linear (HDR) image this pass's result is made from; the renderer reads it
   // back for `RenderOptions::read_hdr` (`weft render -o x.exr`) when this pass makes the frame.
   bool linear_source = false;
+  // Inputs: takes a multisampled texture as it is (the pass draws into it with pipelines of
+  // its sample count: frame::PipelineSamples). Otherwise the runner resolves a multisampled
+  // texture (frame::add_resolve_pass, one per texture version) before the pass sees it.
+  bool multisampled = false;
   std::string meaning;
 };
 
@@ -120,6 +124,12 @@ struct PassFrame {
   // exposure option by `exposure`; aces = false asks for the plain clamp (analytic tests).
   float exposure = 1.0f;
   bool aces = true;
+  // Temporal accumulation (RenderOptions::sample_index): which sample of a still view this
+  // frame is -- 0 starts afresh (an accumulating pass drops its history) -- and the sub-pixel
+  // offset, in pixels within [-0.5, 0.5), the renderer moved the projection by (uniforms'
+  // matrices include it).
+  std::uint32_t sample_index = 0;
+  vec2 jitter{0.0f};
   // The scene-colour stage: adds the passes of every feature the scene's materials use,
   // drawing into the frame::SceneTargets on the blackboard. Only the scene_color pass calls it.
   std::function<Result<void>(RenderGraph&)> add_feature_passes;

@@ -18,6 +18,7 @@ module;
 #include <vector>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/packing.hpp>
+#include <weft/try.h>
 module weft.renderer;
 import weft.core;
 import weft.gpu;
@@ -171,6 +172,8 @@ pipeline::PassFrame Renderer::State::pass_frame(const scene::Scene& scene, const
       .key_light = key_light,
       .exposure = options.exposure,
       .aces = options.aces,
+      .sample_index = options.sample_index,
+      .jitter = frame::sample_jitter(options.sample_index),
       .add_feature_passes =
           [this, &scene, &options, w, h](RenderGraph& graph) -> Result<void> {
         for (const std::string& type : feature_order()) {
@@ -195,11 +198,19 @@ Result<void> Renderer::State::upload_scene(const scene::Scene& scene) {
   const auto env_key = detail::content_hash(scene.environment);
   if (!environment || env_key != environment_key) {
     const auto texels = detail::environment_texels(scene.environment);
+    // A full mip chain: glossy reflections read the level whose texels are as wide as the
+    // material's lobe (a rough surface reflects a blurred sky, not a mirror of its texels);
+    // the background reads level 0.
+    const auto chain = image::rgba32f_mip_chain(std::span(&texels.rgba.front().x, texels.rgba.size() * 4), texels.width,
+                                                texels.height);
     auto t = device->create_texture({.label = "environment", .size = {texels.width, texels.height, 1},
                                      .format = gpu::Format::RGBA32Float,
-                                     .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
+                                     .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst,
+                                     .mip_level_count = std::uint32_t(chain.size())});
     if (!t) return std::unexpected(t.error());
-    if (auto ok = device->queue().write_texture(*t, std::as_bytes(std::span(texels.rgba))); !ok) return ok;
+    std::vector<std::span<const std::byte>> levels;
+    for (const auto& level : chain) levels.push_back(std::as_bytes(std::span(level)));
+    if (auto ok = device->queue().write_texture_levels(*t, levels); !ok) return ok;
     environment.emplace(std::move(*t));
     // The SH include the rotation; a constant sky gets its exact SH (a 4x2 grid is too coarse
     // a quadrature for bands 1 and 2).
@@ -221,7 +232,8 @@ const gpu::TextureView* Renderer::State::material_texture(const scene::Texture& 
   // A declared frame draws nothing: material maps are bound per draw, not resources of the
   // graph, so they are not read at all.
   if (texture.empty() || device->declaring()) return nullptr;
-  std::string key = srgb ? "srgb:" : "linear:";
+  // The content decides the mip chain, so a file used as a normal map is a texture of its own.
+  std::string key = srgb ? "srgb:" : slot == "normal map" ? "normal:" : "linear:";
   if (!texture.path.empty()) {
     key += texture.path.string();
   } else {
@@ -244,10 +256,19 @@ const gpu::TextureView* Renderer::State::material_texture(const scene::Texture& 
           rgba[i * 4 + c] = pixels->pixels[i * pixels->channels + (pixels->channels < 3 ? 0 : c)];
       if (pixels->channels < 3)
         for (std::size_t i = 0; i < std::size_t(pixels->width) * pixels->height; ++i) rgba[i * 4 + 1] = rgba[i * 4 + 2] = rgba[i * 4];
+      // The whole mip chain, made here: minified maps are filtered, not point-sampled
+      // (sRGB colour averaged in linear light, normal maps renormalised).
+      const auto chain = image::rgba8_mip_chain(rgba, pixels->width, pixels->height,
+                                                srgb                 ? image::MipContent::Srgb
+                                                : slot == "normal map" ? image::MipContent::NormalMap
+                                                                       : image::MipContent::Linear);
+      std::vector<std::span<const std::byte>> levels;
+      for (const auto& level : chain) levels.push_back(std::as_bytes(std::span(level)));
       auto t = device->create_texture({.label = key, .size = {pixels->width, pixels->height, 1},
                                        .format = srgb ? gpu::Format::RGBA8Srgb : gpu::Format::RGBA8Unorm,
-                                       .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst});
-      if (t && device->queue().write_texture(*t, std::as_bytes(std::span(rgba)))) {
+                                       .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst,
+                                       .mip_level_count = std::uint32_t(chain.size())});
+      if (t && device->queue().write_texture_levels(*t, levels)) {
         loaded.emplace(std::move(*t));
         ++stats.texture_uploads;
       } else {
@@ -270,11 +291,14 @@ const gpu::Sampler* Renderer::State::material_sampler(const scene::TextureSample
   const auto filter = [](scene::TextureFilter f) {
     return f == scene::TextureFilter::Linear ? gpu::FilterMode::Linear : gpu::FilterMode::Nearest;
   };
+  const bool linear = settings.mag_filter == scene::TextureFilter::Linear && settings.min_filter == scene::TextureFilter::Linear;
   auto sampler = device->create_sampler({.label = "material-sampler",
                                          .mag_filter = filter(settings.mag_filter),
                                          .min_filter = filter(settings.min_filter),
                                          .address_mode = address(settings.wrap_u),
-                                         .address_mode_v = address(settings.wrap_v)});
+                                         .address_mode_v = address(settings.wrap_v),
+                                         // Trilinear, and anisotropic where the adapter has it.
+                                         .max_anisotropy = linear ? 16.0f : 1.0f});
   if (!sampler) {
     warnings.push_back(weft::format("material sampler: {}", sampler.error().message));
     return nullptr;
@@ -372,7 +396,8 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
   frame::FrameUniforms& u = frame_uniforms;
   const auto& cam = scene.camera;
   u.view = cam.view();
-  u.projection = cam.projection(float(w) / float(h));
+  u.projection = frame::jitter_projection(cam.projection(float(w) / float(h)),
+                                          frame::sample_jitter(options.sample_index), w, h);
   u.view_projection = u.projection * u.view;
   u.inverse_view_projection = glm::inverse(u.view_projection);
   u.camera_position = vec4(cam.position, 1.0f);
@@ -439,8 +464,12 @@ Result<void> Renderer::State::prepare(const scene::Scene& scene, const RenderOpt
 // A copy of `handle` into a host-visible buffer after the pass that made it, read back once
 // the frame has executed.
 Result<void> Renderer::State::add_readback(RenderGraph& graph, std::string name, TextureHandle handle, bool hdr) {
-  const auto desc = graph.texture_desc(handle);
+  auto desc = graph.texture_desc(handle);
   if (!desc) return fail(ErrorKind::InvalidArgument, "'{}' is not a texture of this frame", name);
+  if (desc->sample_count > 1) {  // copies read one value per texel: resolve first
+    WEFT_TRY(handle, frame::add_resolve_pass(graph, weft::format("resolve {} (read back)", name), handle));
+    desc = graph.texture_desc(handle);
+  }
   const gpu::Extent3D size = desc->size.resolve({std::uint32_t(frame_uniforms.viewport.x), std::uint32_t(frame_uniforms.viewport.y), 1});
   const auto& info = gpu::format_info(desc->format);
   if (desc->dimension != gpu::TextureDimension::D2 || size.depth_or_layers != 1)
@@ -516,15 +545,35 @@ Result<RenderGraph*> Renderer::State::build_graph(const scene::Scene& scene, con
 
   const pipeline::PassFrame frame = pass_frame(scene, options, key_light);
   std::map<std::string, TextureHandle> produced;  // "pass.slot" -> this frame's handle
+  // Falcor's automatic MSAA resolve: a multisampled output feeding an input that reads texels
+  // (Slot::multisampled false) is resolved once per texture version, shared by its readers.
+  std::map<std::pair<std::uint32_t, std::uint32_t>, TextureHandle> resolved;
+  auto single_sample = [&](const std::string& from, TextureHandle handle) -> Result<TextureHandle> {
+    const auto desc = graph.texture_desc(handle);
+    if (!desc || desc->sample_count == 1) return handle;
+    auto [it, fresh] = resolved.try_emplace({handle.index, handle.version});
+    if (fresh) {
+      auto r = frame::add_resolve_pass(graph, "resolve " + from, handle);
+      if (!r) {
+        resolved.erase(it);
+        return std::unexpected(r.error());
+      }
+      it->second = *r;
+    }
+    return it->second;
+  };
   for (const auto& p : pipeline.passes) {
     std::vector<pipeline::PassSlots::Binding> inputs, targets;
     for (const auto& in : p.type->inputs) {
       const auto from = pipeline.source_of({p.name, in.name});
       if (!from) continue;
-      const TextureHandle handle = produced[from->text()];
+      TextureHandle handle = produced[from->text()];
       if (!handle && !in.optional)
         return fail(ErrorKind::Graph, "{}: pass '{}' input '{}': '{}' produced nothing this frame", pipeline.source, p.name,
                     in.name, from->text());
+      if (handle && !in.multisampled) {
+        WEFT_TRY(handle, single_sample(from->text(), handle));
+      }
       inputs.push_back({in.name, handle});
     }
     if (p.name == image.pass)
@@ -564,8 +613,9 @@ Result<RenderGraph*> Renderer::State::build_graph(const scene::Scene& scene, con
     }
     if (auto ok = add_readback(graph, name, handle, false); !ok) return with_context("--output " + name, ok.error());
   }
-  const TextureHandle out = produced[image.text()];
+  TextureHandle out = produced[image.text()];
   if (!out) return fail(ErrorKind::Graph, "{}: the frame's image '{}' was not produced", pipeline.source, image.text());
+  WEFT_TRY(out, single_sample(image.text(), out));
   graph.mark_output(out, options.target ? options.target_final_state : gpu::Access::CopySrc);
   for (std::size_t i = 1; i < pipeline.outputs.size(); ++i)
     if (const TextureHandle extra = produced[pipeline.outputs[i].text()]) graph.mark_output(extra);

@@ -40,6 +40,12 @@ struct RenderOptions {
   // Also read back the scene colour before tone mapping into Frame::hdr (linear RGBA float):
   // what stability tests inspect, since NaN and infinity do not survive the 8-bit output.
   bool read_hdr = false;
+  // Temporal accumulation of a still view (docs/anti-aliasing.md): sample k > 0 moves the
+  // projection by the k-th point of the Halton (2, 3) sequence, within one pixel, and tells
+  // the passes (PassFrame::sample_index) so an `accumulate` pass averages it into its history;
+  // 0 is the unjittered frame and starts the history afresh. The caller counts: the viewer
+  // counts frames while the camera rests, `weft render --accumulate N` renders 0 .. N-1.
+  std::uint32_t sample_index = 0;
   // The frame to render; null: the scene's "pipeline" file, or the default pipeline. Must
   // outlive the call.
   const pipeline::Pipeline* pipeline = nullptr;

@@ -12,8 +12,8 @@ namespace weft::passes {
 
 struct BackgroundPass::State {
   gpu::BindGroupLayout bind_layout;
-  gpu::PipelineLayout layout;
-  gpu::RenderPipeline pipeline;
+  std::shared_ptr<const gpu::PipelineLayout> layout;
+  frame::PipelineSamples pipeline;  // draws into a multisampled scene colour as it is
   gpu::Sampler sampler;
 };
 
@@ -24,18 +24,19 @@ Result<BackgroundPass> BackgroundPass::create(gpu::Device& device) {
         {.label = "background",
          .entries = {{0, gpu::BindingType::UniformBuffer, gpu::ShaderStage::Fragment},
                      {1, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}}));
-  WEFT_TRY(auto layout, device.create_pipeline_layout({.label = "background", .bind_group_layouts = {&bind_layout}}));
-  WEFT_TRY(auto pipeline, device.create_render_pipeline(
+  WEFT_TRY(auto made_layout, device.create_pipeline_layout({.label = "background", .bind_group_layouts = {&bind_layout}}));
+  // Shared with the pipelines of other sample counts, made when a frame first asks.
+  const auto layout = std::make_shared<const gpu::PipelineLayout>(std::move(made_layout));
+  WEFT_TRY(auto pipeline, frame::PipelineSamples::create(device, layout,
         {.label = "background",
-         .layout = &layout,
-         .vertex = &vs,
-         .fragment = &fs,
+         .layout = layout.get(),
          .color_targets = {{gpu::Format::RGBA16Float}},
          .depth_stencil = gpu::DepthStencilState{.format = gpu::Format::Depth32Float, .depth_write = false,
-                                                 .compare = gpu::CompareFunction::LessEqual}}));
+                                                 .compare = gpu::CompareFunction::LessEqual}},
+        std::move(vs), std::move(fs)));
   WEFT_TRY(auto sampler, device.create_sampler({.label = "environment", .address_mode = gpu::AddressMode::Repeat}));
   BackgroundPass pass;
-  pass.state_ = std::make_shared<State>(State{std::move(bind_layout), std::move(layout), std::move(pipeline),
+  pass.state_ = std::make_shared<State>(State{std::move(bind_layout), layout, std::move(pipeline),
                                               std::move(sampler)});
   return pass;
 }
@@ -47,6 +48,7 @@ Result<void> BackgroundPass::add(RenderGraph& graph, std::string_view name) cons
   };
   WEFT_TRY(const frame::SceneTargets shared, frame::scene_targets(graph.blackboard(), {.shadow_map = false}));
   auto state = state_;
+  const std::uint32_t samples = frame::scene_sample_count(graph);
   auto& data = graph.add_pass<Data>(
       name,
       [&](PassBuilder& b, Data& d) {
@@ -55,7 +57,9 @@ Result<void> BackgroundPass::add(RenderGraph& graph, std::string_view name) cons
         d.depth = b.read(shared.depth, TextureUse::DepthRead);
         d.color = b.write(shared.color, TextureUse::ColorAttachment);
       },
-      [state](const PassResources& res, const Data& d, PassContext& ctx) {
+      [state, samples](const PassResources& res, const Data& d, PassContext& ctx) {
+        auto pipeline = state->pipeline.at(ctx.device(), samples);
+        if (!pipeline) return ctx.encoder().report_error(pipeline.error());
         auto group = ctx.device().create_bind_group(
             {.label = "background",
              .layout = &state->bind_layout,
@@ -66,7 +70,7 @@ Result<void> BackgroundPass::add(RenderGraph& graph, std::string_view name) cons
             {.label = "background",
              .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}},
              .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .read_only = true}});
-        pass.set_pipeline(state->pipeline);
+        pass.set_pipeline(**pipeline);
         pass.set_bind_group(0, frame_group);
         pass.draw(3);
         pass.end();

@@ -9,6 +9,6 @@ layout(location = 0) out vec4 out_color;
 void main() {
   vec4 far_point = frame.inverse_view_projection * vec4(uv * 2.0 - 1.0, 1.0, 1.0);
   vec3 direction = normalize(far_point.xyz / far_point.w - frame.camera_position.xyz);
-  vec3 radiance = texture(environment_map, equirect_uv(direction, frame.environment.y)).rgb;
+  vec3 radiance = textureLod(environment_map, equirect_uv(direction, frame.environment.y), 0.0).rgb;
   out_color = vec4(radiance * frame.environment.x, 1.0);
 }

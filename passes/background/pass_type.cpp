@@ -49,8 +49,10 @@ const pipeline::PassTypeDescriptor& background_pass_type() {
       .summary = "The scene's environment (its HDR map or constant colour) drawn behind everything: where the depth "
                  "is at the far plane.",
       .doc = "docs/pipelines.md#background",
-      .inputs = {{.name = "color", .formats = {frame::scene_color_format}, .meaning = "the scene colour to draw into"},
-                 {.name = "depth", .formats = {frame::scene_depth_format}, .meaning = "the scene's depth (read only)"}},
+      .inputs = {{.name = "color", .formats = {frame::scene_color_format}, .multisampled = true,
+                  .meaning = "the scene colour to draw into (multisampled or not)"},
+                 {.name = "depth", .formats = {frame::scene_depth_format}, .multisampled = true,
+                  .meaning = "the scene's depth (read only), of the colour's sample count"}},
       .outputs = {{.name = "color", .same_as = "color", .meaning = "the colour with the environment behind"}},
       .options = {},
       .create = &create,

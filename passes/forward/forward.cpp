@@ -18,8 +18,8 @@ struct ForwardPass::State {
   gpu::BindGroupLayout material_layout;
   gpu::Texture white;        // the base colour, metallic-roughness, occlusion and emissive map of materials without one
   gpu::Texture flat_normal;  // (0.5, 0.5, 1): the normal map of materials without one (never sampled: maps.w = 0)
-  gpu::PipelineLayout layout;
-  gpu::RenderPipeline pipeline;
+  std::shared_ptr<const gpu::PipelineLayout> layout;
+  frame::PipelineSamples pipeline;
   gpu::Sampler shadow_sampler;
   gpu::Sampler environment_sampler;
   gpu::Sampler material_sampler;
@@ -60,30 +60,34 @@ Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
                      {4, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}}));
   WEFT_TRY(auto white, one_texel(device, "white", {255, 255, 255, 255}));
   WEFT_TRY(auto flat_normal, one_texel(device, "flat-normal", {128, 128, 255, 255}));
-  WEFT_TRY(auto layout, device.create_pipeline_layout({.label = "forward",
+  WEFT_TRY(auto made_layout, device.create_pipeline_layout({.label = "forward",
                                                  .bind_group_layouts = {&bind_layout, &material_layout},
                                                  .push_constant_size = sizeof(DrawConstants)}));
+  // Shared with the pipelines of other sample counts, made when a frame first asks.
+  const auto layout = std::make_shared<const gpu::PipelineLayout>(std::move(made_layout));
   // weft's vertex layout plus the second UV set at location 5, which only this pass reads (an
   // attribute a shader does not consume is a validation warning, so the others go without).
   gpu::VertexBufferLayout vertices = frame::vertex_layout();
   vertices.attributes.push_back({gpu::VertexFormat::Float32x2, offsetof(frame::Vertex, uv1), 5});
-  WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipeline(device, "forward", layout, vs, fs, scene_color_format,
-                                                    scene_depth_format, std::move(vertices)));
+  WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipelines(device, "forward", layout, std::move(vs), std::move(fs),
+                                                           std::move(vertices)));
   WEFT_TRY(auto shadow_sampler, frame::create_shadow_compare_sampler(device, "shadow-compare"));
   WEFT_TRY(auto environment_sampler, device.create_sampler({.label = "environment", .address_mode = gpu::AddressMode::Repeat}));
-  WEFT_TRY(auto material_sampler, device.create_sampler({.label = "material", .address_mode = gpu::AddressMode::Repeat}));
+  WEFT_TRY(auto material_sampler, device.create_sampler({.label = "material", .address_mode = gpu::AddressMode::Repeat,
+                                                          .max_anisotropy = 16.0f}));
   ForwardPass pass;
   pass.state_ = std::make_shared<State>(State{std::move(bind_layout), std::move(material_layout), std::move(white),
-                                              std::move(flat_normal), std::move(layout), std::move(pipeline),
+                                              std::move(flat_normal), layout, std::move(pipeline),
                                               std::move(shadow_sampler), std::move(environment_sampler),
                                               std::move(material_sampler)});
   return pass;
 }
 
-Result<void> ForwardPass::add(RenderGraph& graph, std::span<const frame::DrawItem> items, vec4 clear_color) const {
+Result<void> ForwardPass::add(RenderGraph& graph, std::span<const frame::DrawItem> items, vec4 clear_color,
+                              std::uint32_t samples) const {
   auto state = state_;
   return frame::add_scene_color_pass(
-      graph, {.name = "forward", .reads_environment = true, .clear_color = clear_color},
+      graph, {.name = "forward", .reads_environment = true, .clear_color = clear_color, .samples = samples},
       [state, items](frame::ScenePassDraw& draw) {
         PassContext& ctx = draw.context;
         auto group = ctx.device().create_bind_group(
@@ -93,8 +97,10 @@ Result<void> ForwardPass::add(RenderGraph& graph, std::span<const frame::DrawIte
                          gpu::bind(2, *draw.environment, &state->environment_sampler)}});
         if (!group) return ctx.encoder().report_error(group.error());
         const auto& frame_group = ctx.keep(std::move(*group));  // alive until the frame is done
+        auto pipeline = state->pipeline.at(ctx.device(), draw.samples);
+        if (!pipeline) return ctx.encoder().report_error(pipeline.error());
         gpu::RenderPassEncoder& pass = draw.pass;
-        pass.set_pipeline(state->pipeline);
+        pass.set_pipeline(**pipeline);
         pass.set_bind_group(0, frame_group);
         // One material bind group per distinct set of maps and samplers (textures are
         // imported read-only assets, already in ShaderRead state).

@@ -24,8 +24,10 @@ class ForwardPass {
   static Result<ForwardPass> create(gpu::Device& device);
   // The frame's first lit pass (frame::add_scene_color_pass with a clear colour): needs the
   // uniforms, shadow map and environment of frame::SceneTargets on the blackboard, creates
-  // and puts the scene colour and depth. `items` must outlive the graph's execution.
-  Result<void> add(RenderGraph& graph, std::span<const frame::DrawItem> items, vec4 clear_color = {0, 0, 0, 1}) const;
+  // and puts the scene colour and depth, of `samples` samples (MSAA). `items` must outlive the
+  // graph's execution.
+  Result<void> add(RenderGraph& graph, std::span<const frame::DrawItem> items, vec4 clear_color = {0, 0, 0, 1},
+                   std::uint32_t samples = 1) const;
 
  private:
   struct State;

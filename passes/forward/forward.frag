@@ -98,7 +98,7 @@ void main() {
   vec3 F_ambient = f0 + (max(vec3(1.0 - roughness), f0) - f0) * pow(1.0 - NdotV, 5.0);
   vec3 irradiance = evaluate_irradiance_sh(frame.irradiance_sh, n) * intensity;
   vec3 r = reflect(-v, n);
-  vec3 mirror = texture(environment_map, equirect_uv(r, rotation)).rgb * intensity;
+  vec3 mirror = environment_glossy(environment_map, r, rotation, roughness) * intensity;
   vec3 glossy = mix(mirror, evaluate_irradiance_sh(frame.irradiance_sh, r) * intensity / PI, roughness);
   vec3 ambient = ((1.0 - F_ambient) * (1.0 - metallic) * base * irradiance / PI + F_ambient * glossy) * occlusion;
 

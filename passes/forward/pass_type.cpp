@@ -3,6 +3,7 @@
 // draws into them (PassFrame::add_feature_passes), so features stay material-driven whatever
 // the pipeline around them.
 module;
+#include <bit>
 #include <cstdint>
 #include <expected>
 #include <memory>
@@ -21,9 +22,14 @@ namespace {
 
 class SceneColorFramePass final : public pipeline::FramePass {
  public:
-  explicit SceneColorFramePass(vec4 clear) : clear_(clear) {}
+  SceneColorFramePass(vec4 clear, std::uint32_t samples) : clear_(clear), samples_(samples) {}
 
   Result<void> prepare(gpu::Device& device, const pipeline::PassFrame&) override {
+    // Asked here, by the option's name, rather than when the graph creates the targets.
+    const gpu::Limits& limits = device.adapter_info().limits;
+    if (const std::uint32_t counts = limits.color_sample_counts & limits.depth_sample_counts; !(counts & samples_))
+      return fail(ErrorKind::Unsupported, "option 'msaa' is {}: adapter '{}' renders colour and depth with {} samples",
+                  samples_, device.adapter_info().name, gpu::sample_counts_text(counts));
     if (!forward_) {
       WEFT_TRY(auto pass, ForwardPass::create(device));
       forward_.emplace(std::move(pass));
@@ -45,7 +51,7 @@ class SceneColorFramePass final : public pipeline::FramePass {
     TextureHandle shadow = slots.input("shadow_map");
     if (!shadow) shadow = graph.import_texture("no_shadow", &*no_shadow_, gpu::Access::ShaderRead);
     frame::put_scene_targets(board, {.shadow_map = shadow});
-    WEFT_TRY_VOID(forward_->add(graph, frame.items, clear_));
+    WEFT_TRY_VOID(forward_->add(graph, frame.items, clear_, samples_));
     if (frame.add_feature_passes) WEFT_TRY_VOID(frame.add_feature_passes(graph));
     WEFT_TRY(const frame::SceneTargets targets, frame::scene_targets(board, {.environment = false}));
     slots.set_output("color", targets.color);
@@ -55,13 +61,17 @@ class SceneColorFramePass final : public pipeline::FramePass {
 
  private:
   vec4 clear_;
+  std::uint32_t samples_ = 1;
   std::optional<ForwardPass> forward_;
   std::optional<gpu::Texture> no_shadow_;
 };
 
 Result<std::unique_ptr<pipeline::FramePass>> create(const pipeline::PassOptions& options) {
   const float v = float(options.number("clear"));
-  return std::make_unique<SceneColorFramePass>(vec4(v, v, v, 1.0f));
+  const auto samples = std::uint32_t(options.integer("msaa"));
+  if (std::popcount(samples) != 1)
+    return fail(ErrorKind::InvalidArgument, "option 'msaa' is {}: a sample count is 1, 2, 4, 8, 16, 32 or 64", samples);
+  return std::make_unique<SceneColorFramePass>(vec4(v, v, v, 1.0f), samples);
 }
 
 }  // namespace
@@ -74,11 +84,21 @@ const pipeline::PassTypeDescriptor& scene_color_pass_type() {
       .doc = "docs/pipelines.md#scene_color",
       .inputs = {{.name = "shadow_map", .formats = {gpu::Format::Depth32Float}, .size = pipeline::SlotSize::Any,
                   .optional = true, .meaning = "the key light's depth; unconnected: unshadowed"}},
-      .outputs = {{.name = "color", .formats = {frame::scene_color_format}, .meaning = "linear HDR radiance"},
+      .outputs = {{.name = "color", .formats = {frame::scene_color_format},
+                   .meaning = "linear HDR radiance (multisampled with msaa > 1: resolved for passes that read texels)"},
                   {.name = "depth", .formats = {frame::scene_depth_format}, .meaning = "the camera's depth (0 near, 1 far)"}},
       .options = {pipeline::number_option("clear", 0.0, 1e6, 0.0,
                                           "grey level the colour is cleared to before drawing (the background "
-                                          "pass covers it where the environment shows)")},
+                                          "pass covers it where the environment shows)"),
+                  // 4 is the largest count Vulkan guarantees (lavapipe has 1 and 4): the stability
+                  // sweep's maximum; 2 and 8 where the adapter has them.
+                  pipeline::with_extremes(
+                      pipeline::integer_option("msaa", 1, 64, 1,
+                                               "samples per pixel of the colour and depth (MSAA; 1 is off): edges "
+                                               "are covered per sample and shaded once per pixel; fur turns its "
+                                               "alpha into coverage",
+                                               {1, 4}),
+                      std::nullopt, 4.0)},
       .create = &create,
   };
   return d;

@@ -228,11 +228,11 @@ struct NeuralBtfGpuMaterial {
 struct NeuralBTFMaterial::State {
   gpu::BindGroupLayout frame_layout;
   gpu::BindGroupLayout material_layout;
-  gpu::PipelineLayout layout;
+  std::shared_ptr<const gpu::PipelineLayout> layout;
   // The generic decoder for any shape: the unrolled paper-shape variant measured slower in
   // the fragment shader on lavapipe (docs/neural-btf.md), so only the decode kernel has it.
-  gpu::RenderPipeline pipeline;
-  gpu::RenderPipeline reference_pipeline;  // the raw BTF sampled instead (btf_reference.glsl)
+  frame::PipelineSamples pipeline;
+  frame::PipelineSamples reference_pipeline;  // the raw BTF sampled instead (btf_reference.glsl)
   gpu::Sampler shadow_compare;
   // The batched path: geometry into the G-buffer (same layouts as the fragment path), the
   // tiled decode (paper shape; any other shape per row), the resolve into the scene colour.
@@ -293,23 +293,29 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
                      {1, BindingType::TextureSampler, ShaderStage::Fragment}}}));
   WEFT_TRY(auto material_layout, device.create_bind_group_layout(
         {.label = "neural-btf-model", .entries = {{0, BindingType::ReadOnlyStorageBuffer, ShaderStage::Fragment}}}));
-  WEFT_TRY(auto layout, device.create_pipeline_layout({.label = "neural-btf",
+  WEFT_TRY(auto made_layout, device.create_pipeline_layout({.label = "neural-btf",
                                                  .bind_group_layouts = {&frame_layout, &material_layout},
                                                  .push_constant_size = sizeof(NeuralBtfConstants)}));
-  WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipeline(device, "neural-btf", layout, vs, fs, frame::scene_color_format, frame::scene_depth_format));
-  WEFT_TRY(auto reference_pipeline, frame::create_lit_mesh_pipeline(device, "neural-btf-reference", layout, vs, reference_fs,
-                                                              frame::scene_color_format, frame::scene_depth_format));
+  // Shared with the pipelines of other sample counts, made when a frame first asks.
+  const auto layout = std::make_shared<const gpu::PipelineLayout>(std::move(made_layout));
   WEFT_TRY(auto shadow_compare, frame::create_shadow_compare_sampler(device, "neural-btf-shadow"));
 
   WEFT_TRY(auto gbuffer_pipeline, device.create_render_pipeline(
         {.label = "neural-btf-gbuffer",
-         .layout = &layout,
+         .layout = layout.get(),
          .vertex = &vs,
          .fragment = &gbuffer_fs,
          .vertex_buffers = {frame::vertex_layout()},
          .cull_mode = gpu::CullMode::None,
          .color_targets = {{gbuffer_format}, {gbuffer_format}, {gbuffer_format}, {gbuffer_format}},
          .depth_stencil = gpu::DepthStencilState{.format = frame::scene_depth_format}}));
+  // The fragment path in every sample count (it is what an MSAA frame draws): each kept set
+  // owns its shaders, so the reference gets its own copy of the vertex shader.
+  WEFT_TRY(auto reference_vs, device.create_shader_module(
+        {.label = "neural_btf.vert", .stage = ShaderStage::Vertex, .spirv = shaders::neural_btf_vert()}));
+  WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipelines(device, "neural-btf", layout, std::move(vs), std::move(fs)));
+  WEFT_TRY(auto reference_pipeline, frame::create_lit_mesh_pipelines(device, "neural-btf-reference", layout,
+                                                                     std::move(reference_vs), std::move(reference_fs)));
   WEFT_TRY(auto list_layout, device.create_bind_group_layout({.label = "neural-btf-list",
                                                         .entries = {{0, BindingType::TextureSampler, ShaderStage::Compute},
                                                                     {1, BindingType::TextureSampler, ShaderStage::Compute},
@@ -352,7 +358,7 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
         {.label = "neural-btf-gbuffer", .mag_filter = gpu::FilterMode::Nearest, .min_filter = gpu::FilterMode::Nearest}));
 
   NeuralBTFMaterial pass;
-  pass.state_ = std::make_shared<State>(State{std::move(frame_layout), std::move(material_layout), std::move(layout),
+  pass.state_ = std::make_shared<State>(State{std::move(frame_layout), std::move(material_layout), layout,
                                               std::move(pipeline), std::move(reference_pipeline),
                                               std::move(shadow_compare), std::move(gbuffer_pipeline), std::move(list_layout),
                                               std::move(list_pipeline_layout), std::move(list_pipeline), std::move(decode_layout),
@@ -410,8 +416,14 @@ Result<void> NeuralBTFMaterial::add(RenderGraph& graph, std::span<const NeuralBt
     if (!d.mesh || d.material >= materials.size() || !materials[d.material])
       return fail(ErrorKind::InvalidArgument, "neural BTF pass: a draw names material {} of {} (or has no mesh)",
                   d.material, materials.size());
+  // An MSAA frame draws every material through the fragment path: shaded once per pixel and
+  // covered per sample, as every lit pass is. The batched path's G-buffer holds one surface
+  // per pixel; decoding it per sample would cost `samples` decodes per edge pixel, and a
+  // resolved G-buffer would mix the cloth's inputs with its neighbours' (docs/anti-aliasing.md).
+  const bool multisampled = frame::scene_sample_count(graph) > 1;
   std::vector<NeuralBtfDraw> batched_draws, fragment_draws;
-  for (const auto& d : draws) (batched(*materials[d.material]) ? batched_draws : fragment_draws).push_back(d);
+  for (const auto& d : draws)
+    (batched(*materials[d.material]) && !multisampled ? batched_draws : fragment_draws).push_back(d);
   if (!batched_draws.empty())
     if (auto ok = add_batched(graph, std::move(batched_draws), materials, width, height); !ok) return ok;
   if (fragment_draws.empty()) return {};
@@ -439,7 +451,9 @@ Result<void> NeuralBTFMaterial::add(RenderGraph& graph, std::span<const NeuralBt
         const gpu::RenderPipeline* bound = nullptr;
         for (const NeuralBtfDraw& draw : draws) {
           const NeuralBtfGpuMaterial& mat = *materials[draw.material];
-          const gpu::RenderPipeline* pipeline = mat.reference ? &state->reference_pipeline : &state->pipeline;
+          auto chosen = (mat.reference ? state->reference_pipeline : state->pipeline).at(ctx.device(), scene.samples);
+          if (!chosen) return ctx.encoder().report_error(chosen.error());
+          const gpu::RenderPipeline* pipeline = *chosen;
           if (pipeline != bound) {
             pass.set_pipeline(*pipeline);
             pass.set_bind_group(0, frame_group);

@@ -103,8 +103,9 @@ Result<FurFins> upload_fins(gpu::Device& device, std::span<const FurFinEdge> edg
 
 struct ShellFurPass::State {
   gpu::BindGroupLayout bind_layout;
-  gpu::PipelineLayout layout;
-  gpu::RenderPipeline shells, fins, naive, skin_depth;
+  std::shared_ptr<const gpu::PipelineLayout> layout;
+  // Shells, fins and the naive shells turn alpha into coverage under MSAA (fur_fragment.glsl).
+  frame::PipelineSamples shells, fins, naive, skin_depth;
   gpu::Sampler mirror, repeat, shadow;
 };
 
@@ -131,35 +132,37 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
                    {4, BindingType::TextureSampler, ShaderStage::Fragment},
                    {5, BindingType::ReadOnlyStorageBuffer, ShaderStage::Vertex}}});  // fin edges
   if (!bind_layout) return std::unexpected(bind_layout.error());
-  WEFT_TRY(auto layout, device.create_pipeline_layout(
+  WEFT_TRY(auto made_layout, device.create_pipeline_layout(
         {.label = "shell_fur", .bind_group_layouts = {&*bind_layout}, .push_constant_size = sizeof(FurPush)}));
-  auto pipeline = [&](std::string label, const gpu::ShaderModule& vs, const gpu::ShaderModule& fs,
-                      gpu::VertexBufferLayout vertices) {
-    return frame::create_lit_mesh_pipeline(device, std::move(label), layout, vs, fs, frame::scene_color_format, frame::scene_depth_format,
-                                           std::move(vertices));
-  };
-  WEFT_TRY(auto shells, pipeline("shell_fur.shells", *shell_vs, *shell_fs, frame::vertex_layout()));
+  // Shared with the pipelines of other sample counts, made when a frame first asks.
+  const auto layout = std::make_shared<const gpu::PipelineLayout>(std::move(made_layout));
+  // Each kept pipeline set owns its shaders: the shells' vertex shader is made once per set.
+  auto vertex = [&] { return module("shell_fur/shell.vert", gpu::ShaderStage::Vertex, shaders::shell_vert()); };
+  WEFT_TRY(auto naive_vs, vertex());
+  WEFT_TRY(auto skin_vs, vertex());
+  WEFT_TRY(auto shells, frame::create_lit_mesh_pipelines(device, "shell_fur.shells", layout, std::move(*shell_vs),
+                                                         std::move(*shell_fs), frame::vertex_layout(), true));
   // The fins read their edges from a storage buffer: no vertex buffers.
-  WEFT_TRY(auto fins, device.create_render_pipeline({.label = "shell_fur.fins",
-                                               .layout = &layout,
-                                               .vertex = &*fin_vs,
-                                               .fragment = &*fin_fs,
-                                               .cull_mode = gpu::CullMode::None,
-                                               .color_targets = {{frame::scene_color_format}},
-                                               .depth_stencil = gpu::DepthStencilState{.format = frame::scene_depth_format}}));
-  WEFT_TRY(auto naive, pipeline("shell_fur.naive", *shell_vs, *naive_fs, frame::vertex_layout()));
+  WEFT_TRY(auto fins, frame::PipelineSamples::create(device, layout,
+                          {.label = "shell_fur.fins",
+                           .layout = layout.get(),
+                           .cull_mode = gpu::CullMode::None,
+                           .color_targets = {{frame::scene_color_format}},
+                           .depth_stencil = gpu::DepthStencilState{.format = frame::scene_depth_format}},
+                          std::move(*fin_vs), std::move(*fin_fs), true));
+  WEFT_TRY(auto naive, frame::create_lit_mesh_pipelines(device, "shell_fur.naive", layout, std::move(naive_vs),
+                                                        std::move(*naive_fs), frame::vertex_layout(), true));
   // The skin's depth pre-pass: the skin (instance N of shell.vert) pushed back by a few depth
   // steps, colour untouched (adding zero). Any bias keeps the image: it only lets through
   // fragments that the skin, drawn again at its exact depth, hides anyway.
-  WEFT_TRY(auto skin_depth, device.create_render_pipeline(
+  WEFT_TRY(auto skin_depth, frame::PipelineSamples::create(device, layout,
         {.label = "shell_fur.skin_depth",
-         .layout = &layout,
-         .vertex = &*shell_vs,
-         .fragment = &*skin_fs,
+         .layout = layout.get(),
          .vertex_buffers = {frame::vertex_layout()},
          .cull_mode = gpu::CullMode::None,
          .color_targets = {{frame::scene_color_format, gpu::BlendMode::Additive}},
-         .depth_stencil = gpu::DepthStencilState{.format = frame::scene_depth_format, .depth_bias_constant = 4.0f, .depth_bias_slope = 1.0f}}));
+         .depth_stencil = gpu::DepthStencilState{.format = frame::scene_depth_format, .depth_bias_constant = 4.0f, .depth_bias_slope = 1.0f}},
+        std::move(skin_vs), std::move(*skin_fs)));
   auto mirror = device.create_sampler({.label = "fur.mirror", .mipmap_filter = gpu::FilterMode::Nearest,
                                        .address_mode = gpu::AddressMode::MirrorRepeat, .max_lod = 0.0f});
   auto repeat = device.create_sampler({.label = "fur.repeat", .mipmap_filter = gpu::FilterMode::Nearest,
@@ -168,7 +171,7 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
   for (auto* s : {&mirror, &repeat, &shadow})
     if (!*s) return std::unexpected(s->error());
   ShellFurPass pass;
-  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), std::move(layout), std::move(shells),
+  pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), layout, std::move(shells),
                                               std::move(fins), std::move(naive), std::move(skin_depth), std::move(*mirror),
                                               std::move(*repeat), std::move(*shadow)});
   return pass;
@@ -218,10 +221,24 @@ Result<void> ShellFurPass::add(RenderGraph& graph, std::span<const ShellFurDraw>
       }
       return &ctx.keep(std::move(*group));
     };
+    auto pick = [&](const frame::PipelineSamples& set) -> const gpu::RenderPipeline* {
+      auto p = set.at(ctx.device(), scene.samples);
+      if (!p) {
+        ctx.encoder().report_error(p.error());
+        return nullptr;
+      }
+      return *p;
+    };
+    const gpu::RenderPipeline* shells = pick(state->shells);
+    const gpu::RenderPipeline* fins = pick(state->fins);
+    const gpu::RenderPipeline* naive = pick(state->naive);
+    const gpu::RenderPipeline* skin_depth = pick(state->skin_depth);
+    if (!shells || !fins || !naive || !skin_depth) return;
     gpu::RenderPassEncoder& pass = scene.pass;
     for (const ShellFurDraw& draw : draws) {
       const std::uint32_t layers = draw.layers->table.layers;
-      const FurPush push = push_constants(draw);
+      FurPush push = push_constants(draw);
+      push.specular.w = scene.samples > 1 ? 1.0f : 0.0f;  // alpha to coverage (fur_fragment.glsl)
       const gpu::BindGroup* group = group_for(draw, draw.photo->photo);  // over the photo: shells and fins
       if (!group) break;
       if (draw.method == FurMethod::SinglePhoto) {
@@ -229,21 +246,21 @@ Result<void> ShellFurPass::add(RenderGraph& graph, std::span<const ShellFurDraw>
         // skin (the far side's shells, about half of all) then fail the depth test before their
         // shader runs. The skin's band keeps every texel, so it hides them anyway once the
         // shells draw it again at its exact depth: no pixel changes (docs/fur.md, Speed).
-        pass.set_pipeline(state->skin_depth);
+        pass.set_pipeline(*skin_depth);
         pass.set_bind_group(0, *group);
         pass.push(push);
         pass.set_vertex_buffer(0, draw.mesh->vertices);
         pass.set_index_buffer(draw.mesh->indices);
         pass.draw_indexed(draw.mesh->index_count, 1, 0, 0, layers);  // instance N: the skin
         // Tips first: with h_b = 0 the tips win the depth ties (the photo on the skin).
-        pass.set_pipeline(state->shells);
+        pass.set_pipeline(*shells);
         pass.set_bind_group(0, *group);
         pass.push(push);
         pass.set_vertex_buffer(0, draw.mesh->vertices);
         pass.set_index_buffer(draw.mesh->indices);
         pass.draw_indexed(draw.mesh->index_count, layers + 1);
       } else {
-        pass.set_pipeline(state->naive);
+        pass.set_pipeline(*naive);
         pass.push(push);
         pass.set_vertex_buffer(0, draw.mesh->vertices);
         pass.set_index_buffer(draw.mesh->indices);
@@ -255,7 +272,7 @@ Result<void> ShellFurPass::add(RenderGraph& graph, std::span<const ShellFurDraw>
         }
       }
       if (draw.fins && draw.fins->count > 0 && draw.shading.thickness > 0.0f) {
-        pass.set_pipeline(state->fins);
+        pass.set_pipeline(*fins);
         pass.set_bind_group(0, *group);
         pass.push(push);
         pass.draw(6 * draw.fins->count);

@@ -133,7 +133,7 @@ class SkinFeature final : public FeaturePass {
     }
     auto albedo = texture_for(parsed.albedo_texture, gpu::Format::RGBA8Srgb);
     if (!albedo) return with_context(weft::format("skin material '{}' albedo_texture", material.name), albedo.error());
-    auto normal = texture_for(parsed.normal_texture, gpu::Format::RGBA8Unorm);
+    auto normal = texture_for(parsed.normal_texture, gpu::Format::RGBA8Unorm, image::MipContent::NormalMap);
     if (!normal) return with_context(weft::format("skin material '{}' normal_texture", material.name), normal.error());
     auto specular = texture_for(parsed.specular_texture, gpu::Format::RGBA8Unorm);
     if (!specular) return with_context(weft::format("skin material '{}' specular_texture", material.name), specular.error());
@@ -179,10 +179,13 @@ class SkinFeature final : public FeaturePass {
   }
 
   // The texture at `path` (nullptr when the path is empty), loaded once.
-  Result<const gpu::Texture*> texture_for(const std::filesystem::path& path, gpu::Format format) {
+  Result<const gpu::Texture*> texture_for(const std::filesystem::path& path, gpu::Format format,
+                                          image::MipContent content = image::MipContent::Linear) {
     // A declared frame binds the placeholders: the maps are no resources of the graph.
     if (path.empty() || device_->declaring()) return nullptr;
-    const std::string key = path.string() + (format == gpu::Format::RGBA8Srgb ? "#srgb" : "#linear");
+    const std::string key = path.string() + (format == gpu::Format::RGBA8Srgb                  ? "#srgb"
+                                             : content == image::MipContent::NormalMap ? "#normal"
+                                                                                       : "#linear");
     if (auto it = textures_.find(key); it != textures_.end()) return it->second.get();
     WEFT_TRY(auto img, image::load_ldr(path));
     std::vector<std::uint8_t> rgba(std::size_t(img.width) * img.height * 4, 255);
@@ -192,7 +195,18 @@ class SkinFeature final : public FeaturePass {
       for (int c = 0; c < 3; ++c) rgba[i * 4 + c] = gray ? p[0] : p[c];
       if (img.channels == 4) rgba[i * 4 + 3] = p[3];
     }
-    WEFT_TRY(auto t, upload_rgba8(*device_, path.filename().string(), img.width, img.height, format, rgba));
+    // With its mip chain (sRGB in linear light, normals renormalised): the 4K scan's maps are
+    // filtered when the head is small on screen, not point-sampled.
+    const auto chain = image::rgba8_mip_chain(rgba, img.width, img.height,
+                                              format == gpu::Format::RGBA8Srgb ? image::MipContent::Srgb : content);
+    std::vector<std::span<const std::byte>> levels;
+    for (const auto& level : chain) levels.push_back(std::as_bytes(std::span(level)));
+    WEFT_TRY(auto t, device_->create_texture({.label = path.filename().string(), .size = {img.width, img.height, 1},
+                                              .format = format,
+                                              .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::CopyDst |
+                                                       gpu::TextureUsage::CopySrc,
+                                              .mip_level_count = std::uint32_t(chain.size())}));
+    WEFT_TRY_VOID(device_->queue().write_texture_levels(t, levels));
     return textures_.emplace(key, std::make_unique<gpu::Texture>(std::move(t))).first->second.get();
   }
 

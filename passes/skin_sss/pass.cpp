@@ -44,8 +44,8 @@ struct SkinSSSPass::State {
   gpu::BindGroupLayout material_layout;
   gpu::BindGroupLayout reference_layout;
   gpu::Buffer no_reference;  // bound when a draw uses the LUT
-  gpu::PipelineLayout layout;
-  gpu::RenderPipeline pipeline;
+  std::shared_ptr<const gpu::PipelineLayout> layout;
+  frame::PipelineSamples pipeline;
   gpu::Sampler shadow_compare;
   gpu::Sampler shadow_depth;
   gpu::Sampler environment;
@@ -78,20 +78,23 @@ Result<SkinSSSPass> SkinSSSPass::create(gpu::Device& device) {
            device.create_buffer_with_data({.label = "skin-no-reference", .size = sizeof(zero),
                                            .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::CopyDst},
                                           std::as_bytes(std::span(&zero, 1))));
-  WEFT_TRY(auto layout, device.create_pipeline_layout({.label = "skin",
+  WEFT_TRY(auto made_layout, device.create_pipeline_layout({.label = "skin",
                                                        .bind_group_layouts = {&frame_layout, &material_layout, &reference_layout},
                                                        .push_constant_size = sizeof(SkinConstants)}));
-  WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipeline(device, "skin", layout, vs, fs, frame::scene_color_format, frame::scene_depth_format));
+  // Shared with the pipelines of other sample counts, made when a frame first asks.
+  const auto layout = std::make_shared<const gpu::PipelineLayout>(std::move(made_layout));
+  WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipelines(device, "skin", layout, std::move(vs), std::move(fs)));
   WEFT_TRY(auto shadow_compare, frame::create_shadow_compare_sampler(device, "skin-shadow-compare"));
   WEFT_TRY(auto shadow_depth, device.create_sampler({.label = "skin-shadow-depth", .mag_filter = gpu::FilterMode::Nearest,
                                                      .min_filter = gpu::FilterMode::Nearest,
                                                      .mipmap_filter = gpu::FilterMode::Nearest, .max_lod = 0.0f}));
   WEFT_TRY(auto environment, device.create_sampler({.label = "skin-environment", .address_mode = gpu::AddressMode::Repeat}));
   WEFT_TRY(auto lut, device.create_sampler({.label = "skin-lut", .mipmap_filter = gpu::FilterMode::Nearest, .max_lod = 0.0f}));
-  WEFT_TRY(auto texture, device.create_sampler({.label = "skin-texture", .address_mode = gpu::AddressMode::Repeat}));
+  WEFT_TRY(auto texture, device.create_sampler({.label = "skin-texture", .address_mode = gpu::AddressMode::Repeat,
+                                                .max_anisotropy = 16.0f}));
   SkinSSSPass pass;
   pass.state_ = std::make_shared<State>(State{std::move(frame_layout), std::move(material_layout), std::move(reference_layout),
-                                              std::move(no_reference), std::move(layout), std::move(pipeline),
+                                              std::move(no_reference), layout, std::move(pipeline),
                                               std::move(shadow_compare), std::move(shadow_depth), std::move(environment),
                                               std::move(lut), std::move(texture)});
   return pass;
@@ -151,8 +154,10 @@ Result<void> SkinSSSPass::add(RenderGraph& graph, std::span<const SkinDraw> draw
       if (!reference) return ctx.encoder().report_error(reference.error());
       reference_groups[i] = &ctx.keep(std::move(*reference));
     }
+    auto pipeline = state->pipeline.at(ctx.device(), scene.samples);
+    if (!pipeline) return ctx.encoder().report_error(pipeline.error());
     gpu::RenderPassEncoder& pass = scene.pass;
-    pass.set_pipeline(state->pipeline);
+    pass.set_pipeline(**pipeline);
     pass.set_bind_group(0, frame_group);
     for (std::size_t i = 0; i < draws.size(); ++i) {
       const SkinDraw& draw = draws[i];

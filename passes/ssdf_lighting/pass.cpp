@@ -106,8 +106,8 @@ Result<SsdfGpuLobes> upload_lobes(gpu::Device& device, std::span<const ssdf::Sph
 
 struct SSDFLightingPass::State {
   gpu::BindGroupLayout bind_layout;
-  gpu::PipelineLayout layout;
-  gpu::RenderPipeline pipeline;
+  std::shared_ptr<const gpu::PipelineLayout> layout;
+  frame::PipelineSamples pipeline;
   gpu::Sampler shadow;
   gpu::Buffer table;  // ssdf::irradiance_table()
 };
@@ -129,9 +129,11 @@ Result<SSDFLightingPass> SSDFLightingPass::create(gpu::Device& device) {
                      {4, BindingType::ReadOnlyStorageBuffer, ShaderStage::Vertex},
                      {5, BindingType::ReadOnlyStorageBuffer, ShaderStage::Vertex},
                      {6, BindingType::ReadOnlyStorageBuffer, ShaderStage::Vertex}}}));
-  WEFT_TRY(auto layout, device.create_pipeline_layout(
+  WEFT_TRY(auto made_layout, device.create_pipeline_layout(
         {.label = "ssdf_lighting", .bind_group_layouts = {&bind_layout}, .push_constant_size = sizeof(SsdfPush)}));
-  WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipeline(device, "ssdf_lighting", layout, vs, fs, frame::scene_color_format, frame::scene_depth_format));
+  // Shared with the pipelines of other sample counts, made when a frame first asks.
+  const auto layout = std::make_shared<const gpu::PipelineLayout>(std::move(made_layout));
+  WEFT_TRY(auto pipeline, frame::create_lit_mesh_pipelines(device, "ssdf_lighting", layout, std::move(vs), std::move(fs)));
   WEFT_TRY(auto shadow, frame::create_shadow_compare_sampler(device, "ssdf.shadow"));
   // The table is a second of quadrature the first time: a declaring device (a frame declared,
   // never drawn) gets the buffer at its size without it.
@@ -142,7 +144,7 @@ Result<SSDFLightingPass> SSDFLightingPass::create(gpu::Device& device) {
                            : storage(device, "ssdf.irradiance_table",
                                      std::as_bytes(std::span(ssdf::irradiance_table().values))));
   SSDFLightingPass pass;
-  pass.state_ = std::make_shared<State>(State{std::move(bind_layout), std::move(layout), std::move(pipeline),
+  pass.state_ = std::make_shared<State>(State{std::move(bind_layout), layout, std::move(pipeline),
                                               std::move(shadow), std::move(table)});
   return pass;
 }
@@ -195,8 +197,10 @@ Result<void> SSDFLightingPass::add(RenderGraph& graph, std::span<const SsdfDraw>
       groups.emplace_back(key, &ctx.keep(std::move(*group)));
       return groups.back().second;
     };
+    auto pipeline = state->pipeline.at(ctx.device(), scene.samples);
+    if (!pipeline) return ctx.encoder().report_error(pipeline.error());
     gpu::RenderPassEncoder& pass = scene.pass;
-    pass.set_pipeline(state->pipeline);
+    pass.set_pipeline(**pipeline);
     for (const SsdfDraw& draw : draws) {
       const gpu::BindGroup* group = group_for(draw);
       if (!group) break;

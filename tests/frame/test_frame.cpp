@@ -94,3 +94,51 @@ TEST_CASE("a two-row map integrates to 4 pi: band 0 of a coarse constant sky is 
   const auto sh = frame::irradiance_sh(rgb, 4, 2);
   CHECK(sh[0].x == doctest::Approx(frame::constant_irradiance_sh(vec3(1.0f))[0].x).epsilon(1e-5));
 }
+
+TEST_CASE("sample jitter: none for sample 0, then the Halton (2, 3) points within the pixel, evenly spread") {
+  CHECK(frame::sample_jitter(0) == vec2(0.0f));
+  // Halton base 2: 1/2, 1/4, 3/4; base 3: 1/3, 2/3, 1/9 -- less a half.
+  CHECK(frame::sample_jitter(1).x == doctest::Approx(0.0f));
+  CHECK(frame::sample_jitter(1).y == doctest::Approx(1.0f / 3.0f - 0.5f));
+  CHECK(frame::sample_jitter(2).x == doctest::Approx(-0.25f));
+  CHECK(frame::sample_jitter(2).y == doctest::Approx(2.0f / 3.0f - 0.5f));
+  CHECK(frame::sample_jitter(3).x == doctest::Approx(0.25f));
+  CHECK(frame::sample_jitter(3).y == doctest::Approx(1.0f / 9.0f - 0.5f));
+  // Every point inside the pixel, and each quarter of the pixel holds a quarter of 64 samples
+  // (a low-discrepancy set; random points would be off by several).
+  int quarter[2][2] = {{0, 0}, {0, 0}};
+  vec2 mean(0.0f);
+  for (std::uint32_t i = 0; i < 64; ++i) {
+    const vec2 j = frame::sample_jitter(i);
+    CHECK(j.x >= -0.5f);
+    CHECK(j.x < 0.5f);
+    CHECK(j.y >= -0.5f);
+    CHECK(j.y < 0.5f);
+    ++quarter[j.x >= 0.0f][j.y >= 0.0f];
+    mean += j / 64.0f;
+  }
+  for (auto& row : quarter)
+    for (int n : row) CHECK(std::abs(n - 16) <= 2);
+  CHECK(std::abs(mean.x) < 0.02f);
+  CHECK(std::abs(mean.y) < 0.02f);
+  // Far along the sequence (a viewer left still for a long time) the points stay in the pixel.
+  for (std::uint32_t i : {1000u, 65535u, 4000000000u}) {
+    const vec2 j = frame::sample_jitter(i);
+    CHECK((std::isfinite(j.x) && j.x >= -0.5f && j.x < 0.5f && j.y >= -0.5f && j.y < 0.5f));
+  }
+}
+
+TEST_CASE("a jittered projection moves every point by the jitter in pixels, at every depth") {
+  const mat4 p = frame::perspective_vk(glm::radians(50.0f), 1.6f, 0.05f, 50.0f);
+  const std::uint32_t w = 160, h = 100;
+  const vec2 jitter{0.3f, -0.45f};
+  const mat4 moved = frame::jitter_projection(p, jitter, w, h);
+  for (vec3 v : {vec3(0, 0, -1), vec3(0.4f, -0.2f, -3), vec3(-2, 1, -40)}) {
+    const vec4 a = p * vec4(v, 1.0f), b = moved * vec4(v, 1.0f);
+    const vec2 pixels_a = vec2(a) / a.w * vec2(w, h) * 0.5f, pixels_b = vec2(b) / b.w * vec2(w, h) * 0.5f;
+    CHECK(pixels_b.x - pixels_a.x == doctest::Approx(jitter.x).epsilon(1e-3));
+    CHECK(pixels_b.y - pixels_a.y == doctest::Approx(jitter.y).epsilon(1e-3));
+    CHECK(b.z / b.w == doctest::Approx(a.z / a.w));  // depth is untouched
+  }
+  CHECK(frame::jitter_projection(p, jitter, 0, 0) == p);  // no size: nothing to move by
+}

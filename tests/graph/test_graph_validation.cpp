@@ -1183,3 +1183,96 @@ TEST_CASE("memory planner: many live transients in a fragmented heap still place
   CHECK(most_free_runs >= 48);
   CHECK(segments >= 280);
 }
+
+TEST_SUITE("graph multisampling") {
+  TEST_CASE("multisampled attachments of one pass must share a count; the error names the pass and both") {
+    RenderGraph graph("frame");
+    graph.add_pass("msaa", [](PassBuilder& b) {
+      b.write(b.create_texture("color", {.size = RelativeSize{1.0f}, .format = gpu::Format::RGBA16Float, .sample_count = 4}),
+              TextureUse::ColorAttachment);
+      b.write(b.create_texture("depth", {.size = RelativeSize{1.0f}, .format = gpu::Format::Depth32Float, .sample_count = 2}),
+              TextureUse::DepthAttachment);
+      b.side_effect();
+    });
+    auto compiled = graph.compile(options);
+    REQUIRE_FALSE(compiled);
+    const GraphError& e = only_error(compiled.error());
+    CHECK(e.kind == GraphErrorKind::SampleCount);
+    CHECK(contains(e.message, "pass 'msaa'"));
+    CHECK(contains(e.message, "texture 'color' has 4 samples and texture 'depth' has 2"));
+    CHECK(e.passes == std::vector<std::string>{"msaa"});
+    CHECK(e.resources == std::vector<std::string>{"color", "depth"});
+  }
+
+  TEST_CASE("a single-sample attachment beside multisampled ones is their resolve target, and compiles") {
+    RenderGraph graph("frame");
+    TextureHandle resolved;
+    graph.add_pass("resolve", [&](PassBuilder& b) {
+      b.write(b.create_texture("color", {.size = RelativeSize{1.0f}, .format = gpu::Format::RGBA16Float, .sample_count = 4}),
+              TextureUse::ColorAttachment);
+      resolved = b.write(b.create_texture("resolved", {.size = RelativeSize{1.0f}, .format = gpu::Format::RGBA16Float}),
+                         TextureUse::ColorAttachment);
+    });
+    graph.mark_output(resolved);
+    auto compiled = graph.compile(options);
+    REQUIRE_MESSAGE(compiled, compiled.error().to_string());
+  }
+
+  TEST_CASE("sampling or copying a multisampled texture per texel is an error that says to resolve it") {
+    RenderGraph graph("frame");
+    TextureHandle color;
+    graph.add_pass("draw", [&](PassBuilder& b) {
+      color = b.write(b.create_texture("scene", {.size = RelativeSize{1.0f}, .format = gpu::Format::RGBA16Float, .sample_count = 4}),
+                      TextureUse::ColorAttachment);
+    });
+    graph.add_pass("tonemap", [&](PassBuilder& b) {
+      b.read(color, TextureUse::Sampled);
+      b.side_effect();
+    });
+    auto compiled = graph.compile(options);
+    REQUIRE_FALSE(compiled);
+    const GraphError& e = only_error(compiled.error());
+    CHECK(e.kind == GraphErrorKind::SampleCount);
+    CHECK(contains(e.message, "pass 'tonemap': samples texture 'scene' (4 samples)"));
+    CHECK(contains(e.message, "resolve it"));
+    CHECK(e.passes == std::vector<std::string>{"tonemap"});
+  }
+
+  TEST_CASE("bad sample counts are descriptor errors; multisampled memory is estimated per sample") {
+    {
+      RenderGraph graph("frame");
+      graph.add_pass("odd", [](PassBuilder& b) {
+        b.write(b.create_texture("three", {.size = RelativeSize{1.0f}, .format = gpu::Format::RGBA8Unorm, .sample_count = 3}),
+                TextureUse::ColorAttachment);
+        b.write(b.create_texture("mips", {.size = RelativeSize{1.0f}, .format = gpu::Format::RGBA8Unorm,
+                                          .mip_level_count = 2, .sample_count = 4}),
+                TextureUse::ColorAttachment);
+        b.side_effect();
+      });
+      auto compiled = graph.compile(options);
+      REQUIRE_FALSE(compiled);
+      CHECK(compiled.error().count(GraphErrorKind::InvalidDescriptor) == 2);
+      CHECK(contains(compiled.error().to_string(), "3 samples"));
+      CHECK(contains(compiled.error().to_string(), "4 samples and 2 mip levels"));
+    }
+    std::uint64_t bytes[2] = {};
+    for (int i = 0; i < 2; ++i) {
+      RenderGraph graph("frame");
+      TextureHandle out;
+      graph.add_pass("draw", [&](PassBuilder& b) {
+        b.write(b.create_texture("color", {.size = gpu::Extent3D{256, 256, 1}, .format = gpu::Format::RGBA8Unorm,
+                                           .sample_count = i == 0 ? 1u : 4u}),
+                TextureUse::ColorAttachment);
+        out = b.write(b.create_texture("out", {.size = gpu::Extent3D{256, 256, 1}, .format = gpu::Format::RGBA8Unorm}),
+                      TextureUse::ColorAttachment);
+      });
+      graph.mark_output(out);
+      auto compiled = graph.compile(options);
+      REQUIRE_MESSAGE(compiled, compiled.error().to_string());
+      bytes[i] = compiled->memory().unaliased_bytes;
+    }
+    // 256 KiB per sample for 'color', plus 256 KiB for 'out'.
+    CHECK(bytes[0] == 2 * 256 * 1024);
+    CHECK(bytes[1] == 5 * 256 * 1024);
+  }
+}

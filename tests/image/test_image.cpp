@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <bit>
 #include <cfloat>
@@ -1115,4 +1116,74 @@ TEST_CASE("JPEG decoding (libjpeg-turbo): a truncated stream is an error, CMYK b
     CHECK(img->channels == 1);
     CHECK(std::abs(int(img->pixels[10]) - 90) <= 1);
   }
+}
+
+// ---- mip chains ----------------------------------------------------------------------------
+
+TEST_CASE("mip chains: sizes to 1x1, sRGB averaged in linear light, data as stored, odd sides keep every texel") {
+  using weft::image::MipContent;
+  CHECK(weft::image::full_mip_count(1, 1) == 1);
+  CHECK(weft::image::full_mip_count(4096, 1) == 13);
+  CHECK(weft::image::full_mip_count(5, 3) == 3);
+  // Black and white in a checkerboard: sRGB's average is linear 0.5 = code 188, not 128.
+  const std::vector<std::uint8_t> checker = {0, 0, 0, 255, 255, 255, 255, 255, 255, 255, 255, 255, 0, 0, 0, 255};
+  const auto srgb = weft::image::rgba8_mip_chain(checker, 2, 2, MipContent::Srgb);
+  REQUIRE(srgb.size() == 2);
+  CHECK(srgb[0] == checker);
+  CHECK(int(srgb[1][0]) == int(std::lround(weft::image::linear_to_srgb(0.5f) * 255.0f)));
+  CHECK(int(srgb[1][0]) == 188);
+  CHECK(int(srgb[1][3]) == 255);  // alpha is linear: the mean of 255s
+  const auto data = weft::image::rgba8_mip_chain(checker, 2, 2, MipContent::Linear);
+  CHECK(int(data[1][0]) == 128);  // 127.5 rounds up
+  // 5 x 1: the last level-1 texel averages three (texels 2, 3, 4), so none is dropped.
+  std::vector<std::uint8_t> row;
+  for (int v : {0, 30, 60, 90, 120})
+    for (int c = 0; c < 4; ++c) row.push_back(std::uint8_t(c == 3 ? 255 : v));
+  const auto odd = weft::image::rgba8_mip_chain(row, 5, 1, MipContent::Linear);
+  REQUIRE(odd.size() == 3);
+  REQUIRE(odd[1].size() == 2 * 4);
+  CHECK(int(odd[1][0]) == 15);
+  CHECK(int(odd[1][4]) == 90);
+  REQUIRE(odd[2].size() == 4);
+  CHECK(int(odd[2][0]) == 53);  // (15 + 90) / 2 = 52.5 from the unrounded level above
+  // Bad input: nothing.
+  CHECK(weft::image::rgba8_mip_chain(row, 4, 1, MipContent::Linear).empty());
+  CHECK(weft::image::rgba8_mip_chain({}, 0, 0, MipContent::Linear).empty());
+}
+
+TEST_CASE("mip chains of normal maps are renormalised: opposite tilts average to straight up") {
+  using weft::image::MipContent;
+  auto encode = [](float x, float y, float z) {
+    const float l = std::sqrt(x * x + y * y + z * z);
+    return std::array<std::uint8_t, 4>{std::uint8_t(std::lround((x / l * 0.5f + 0.5f) * 255.0f)),
+                                       std::uint8_t(std::lround((y / l * 0.5f + 0.5f) * 255.0f)),
+                                       std::uint8_t(std::lround((z / l * 0.5f + 0.5f) * 255.0f)), 255};
+  };
+  std::vector<std::uint8_t> tilted;
+  for (auto t : {encode(0.6f, 0, 0.8f), encode(-0.6f, 0, 0.8f)}) tilted.insert(tilted.end(), t.begin(), t.end());
+  const auto plain = weft::image::rgba8_mip_chain(tilted, 2, 1, MipContent::Linear);
+  const auto normal = weft::image::rgba8_mip_chain(tilted, 2, 1, MipContent::NormalMap);
+  // Averaged as data the normal shrinks to length 0.8 (z code 229); renormalised it is (0, 0, 1).
+  CHECK(std::abs(int(plain[1][2]) - 230) <= 1);
+  CHECK(std::abs(int(normal[1][0]) - 128) <= 1);
+  CHECK(int(normal[1][2]) == 255);
+  // Every level's normal is unit length within 8-bit rounding.
+  std::vector<std::uint8_t> noise;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (int i = 0; i < 64 * 32; ++i) {
+    auto t = encode(u(rng), u(rng), 0.3f + std::abs(u(rng)));
+    noise.insert(noise.end(), t.begin(), t.end());
+  }
+  const auto chain = weft::image::rgba8_mip_chain(noise, 64, 32, MipContent::NormalMap);
+  REQUIRE(chain.size() == 7);
+  for (std::size_t m = 1; m < chain.size(); ++m)
+    for (std::size_t t = 0; t < chain[m].size() / 4; ++t) {
+      float len2 = 0;
+      for (int c = 0; c < 3; ++c) {
+        const float v = chain[m][t * 4 + c] / 255.0f * 2.0f - 1.0f;
+        len2 += v * v;
+      }
+      CHECK(std::sqrt(len2) == doctest::Approx(1.0f).epsilon(0.02));
+    }
 }

@@ -190,6 +190,42 @@ TEST_CASE("the viewer's image with the UI hidden is weft render's image of the s
   CHECK(d.mean < 0.01);
 }
 
+TEST_CASE("a still view refines by accumulation: settled, it is weft render --accumulate's image; a camera move starts again") {
+  require_display();
+  write(scratch() / "refine.json", ball_scene("[0.8, 0.1, 0.05]"));
+  const fs::path first = scratch() / "refine_first.png", settled = scratch() / "refine_settled.png",
+                 moved = scratch() / "refine_moved.png", rendered = scratch() / "refine_rendered.png",
+                 single = scratch() / "refine_single.png";
+  // A script's view does not accumulate until it says so: refined is one frame (sample 0).
+  // Then 8 samples, settled; an orbit there and back is the same view, which refines again
+  // from its first sample to the same 8.
+  write(scratch() / "refine.txt", "ui off\nrefine\nscreenshot " + first.string() + "\naccumulate 8\nsettle\nscreenshot " +
+                                      settled.string() + "\norbit 5 0\norbit -5 0\nsettle\nscreenshot " + moved.string() +
+                                      "\nquit\n");
+  auto v = run(weft_cli() + " view " + (scratch() / "refine.json").string() + " --size 160x120 --script " +
+               (scratch() / "refine.txt").string());
+  INFO(v.output);
+  REQUIRE(v.code == 0);
+  CHECK(v.output.find("3 screenshot(s)") != std::string::npos);
+  const std::string source = std::getenv("WEFT_SOURCE_DIR");
+  auto r = run(weft_cli() + " render " + (scratch() / "refine.json").string() + " --size 160x120 --pipeline " + source +
+               "/examples/pipelines/accumulate.json --accumulate 8 -o " + rendered.string());
+  INFO(r.output);
+  REQUIRE(r.code == 0);
+  auto one = run(weft_cli() + " render " + (scratch() / "refine.json").string() + " --size 160x120 -o " + single.string());
+  REQUIRE(one.code == 0);
+  // Settled: the mean of the same 8 jittered samples weft render averages.
+  const Difference settled_vs_render = difference(settled, rendered);
+  CHECK(settled_vs_render.max <= 1);
+  // Its first refined frame is the frame without accumulation (sample 0: no jitter)...
+  CHECK(difference(first, single).max <= 1);
+  // ...which the accumulation changed along the ball's edge.
+  CHECK(difference(settled, first).max > 8);
+  // After the move the accumulation started again and reached the same mean (an orbit there
+  // and back may move the camera by a rounding error: within two steps).
+  CHECK(difference(moved, settled).max <= 2);
+}
+
 TEST_CASE("hot reload: a changed colour shows, invalid JSON is reported and the frame kept, a fix recovers") {
   require_display();
   const fs::path live = scratch() / "live.json";

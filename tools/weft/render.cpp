@@ -13,6 +13,7 @@
 #include <utility>
 #include <string>
 #include <string_view>
+#include <nlohmann/json.hpp>
 #include "commands.h"
 import weft.core;
 import weft.gpu;
@@ -212,6 +213,11 @@ Command add_render(CLI::App& app) {
                 "adapters GPU timestamps leave out vertex work)");
   sub->add_option("--frames", *frames, "Render this many frames; --profile then reports medians of frames 2..N")
       ->check(CLI::Range(1u, 10000u));
+  auto accumulate = std::make_shared<unsigned>(0);
+  sub->add_option("--accumulate", *accumulate,
+                  "Render samples 0..N-1 of the still view, each jittered by a Halton sub-pixel offset, and write the "
+                  "last: the pipeline's accumulate pass averages them (examples/pipelines/accumulate.json)")
+      ->check(CLI::Range(1u, 4096u));
   auto budget_ms = std::make_shared<double>(0.0);
   sub->add_option("--budget-ms", *budget_ms,
                   "Pick each feature's preset (low/medium/high) for the least error within this frame time, "
@@ -244,8 +250,31 @@ Command add_render(CLI::App& app) {
     if (!r) return fail_with("render", r.error());
     log::info(weft::format("rendering on {}", session->adapter.info().name));
     if (*budget_ms > 0.0) return render_within_budget(*r, *scene, *options, *budget_ms, *output, *kind, *exposure);
+    if (*accumulate > 0) {
+      if (*frames > 1)
+        return fail_with("render", Error{ErrorKind::InvalidArgument, "--accumulate and --frames cannot be combined"});
+      // Jittered samples that nothing averages would only move the image: say so before rendering.
+      auto report = r->describe(*scene, *options);
+      if (!report) return fail_with("render", report.error());
+      const auto pipeline_json = nlohmann::json::parse(report->pipeline, nullptr, false);
+      bool has_accumulate = false;
+      if (pipeline_json.is_object() && pipeline_json.contains("passes") && pipeline_json["passes"].is_object())
+        for (const auto& [pass_name, pass] : pipeline_json["passes"].items())
+          has_accumulate |= pass.is_object() && pass.value("type", "") == "accumulate";
+      if (!has_accumulate)
+        return fail_with("render", Error{ErrorKind::InvalidArgument,
+                                         "--accumulate: the pipeline has no pass of type 'accumulate' to average the "
+                                         "samples (--pipeline examples/pipelines/accumulate.json has one)"});
+    }
     auto frame = r->render(*scene, *options);
     if (!frame) return fail_with("render", frame.error());
+    for (unsigned sample = 1; sample < *accumulate; ++sample) {
+      if (sample % 16 == 0) log::info(weft::format("accumulated {} of {} samples", sample, *accumulate));
+      options->sample_index = sample;
+      auto next = r->render(*scene, *options);
+      if (!next) return fail_with("render", next.error());
+      frame = std::move(next);
+    }
     std::vector<FrameStats> later;  // frames after the first reuse every cache
     std::vector<double> render_ms;  // each later frame's render() call: prepare, graph, execute, readback
     for (unsigned i = 1; i < *frames; ++i) {

@@ -16,6 +16,7 @@ Command add_view(CLI::App& app) {
     std::string scene, size = "1280x720", quality = "medium", script;
     double motion_budget_ms = 100.0;
     std::string shader_dir, pipeline, scene_device = "auto";
+    unsigned accumulate = 0;
   };
   auto o = std::make_shared<Options>();
   sub->add_option("scene", o->scene, "Scene file (.json, or a .gltf/.glb); edits to it are reloaded live")->required();
@@ -31,6 +32,10 @@ Command add_view(CLI::App& app) {
                   "in the source tree)");
   sub->add_option("--pipeline", o->pipeline,
                   "Pipeline file: the frame's passes (docs/pipelines.md); edits to it are reloaded live");
+  sub->add_option("--accumulate", o->accumulate,
+                  "While the camera rests, average this many frames jittered by sub-pixel offsets (the image "
+                  "converges towards supersampling; 1: off; default 16, or 1 in a --script session)")
+      ->check(CLI::Range(1u, 4096u));
   sub->add_option("--scene-device", o->scene_device,
                   "Where scene frames render: shared (the window's device, no CPU round trip), own (a device of "
                   "their own, pixels uploaded: keeps the UI's frames apart from a slow scene frame on a CPU "
@@ -49,6 +54,7 @@ Command add_view(CLI::App& app) {
     if (!o->script.empty()) options.script = o->script;
     if (!o->shader_dir.empty()) options.shader_dir = o->shader_dir;
     if (!o->pipeline.empty()) options.pipeline = o->pipeline;
+    if (o->accumulate > 0) options.refine_samples = o->accumulate;
     using SceneDevice = viewer::ViewOptions::SceneDevice;
     options.scene_device = o->scene_device == "shared" ? SceneDevice::Shared
                            : o->scene_device == "own" ? SceneDevice::Own

@@ -27,8 +27,8 @@ static_assert(sizeof(ToonPush) == 112);
 
 struct ToonPass::State {
   gpu::BindGroupLayout bind_layout;
-  gpu::PipelineLayout layout;
-  gpu::RenderPipeline surface, outline;
+  std::shared_ptr<const gpu::PipelineLayout> layout;
+  frame::PipelineSamples surface, outline;  // in each sample count the frame draws with (MSAA)
   gpu::Sampler shadow;
 };
 
@@ -46,24 +46,26 @@ Result<ToonPass> ToonPass::create(gpu::Device& device) {
                {.label = "toon",
                 .entries = {{0, gpu::BindingType::UniformBuffer, ShaderStage::Vertex | ShaderStage::Fragment},
                             {1, gpu::BindingType::TextureSampler, ShaderStage::Fragment}}}));
-  WEFT_TRY(auto layout, device.create_pipeline_layout(
+  WEFT_TRY(auto made_layout, device.create_pipeline_layout(
                             {.label = "toon", .bind_group_layouts = {&bind_layout}, .push_constant_size = sizeof(ToonPush)}));
-  WEFT_TRY(auto surface, frame::create_lit_mesh_pipeline(device, "toon.surface", layout, surface_vs, surface_fs,
-                                                         frame::scene_color_format, frame::scene_depth_format));
+  // Shared with the pipelines of other sample counts, made when a frame first asks.
+  const auto layout = std::make_shared<const gpu::PipelineLayout>(std::move(made_layout));
+  WEFT_TRY(auto surface, frame::create_lit_mesh_pipelines(device, "toon.surface", layout, std::move(surface_vs),
+                                                          std::move(surface_fs)));
   // The hull keeps only its back faces, which lie behind the surface except at the rim.
-  WEFT_TRY(auto outline, device.create_render_pipeline({.label = "toon.outline",
-                                                        .layout = &layout,
-                                                        .vertex = &outline_vs,
-                                                        .fragment = &outline_fs,
-                                                        .vertex_buffers = {frame::vertex_layout()},
-                                                        .cull_mode = gpu::CullMode::Front,
-                                                        .color_targets = {{frame::scene_color_format}},
-                                                        .depth_stencil = gpu::DepthStencilState{
-                                                            .format = frame::scene_depth_format}}));
+  WEFT_TRY(auto outline, frame::PipelineSamples::create(device, layout,
+                                                         {.label = "toon.outline",
+                                                          .layout = layout.get(),
+                                                          .vertex_buffers = {frame::vertex_layout()},
+                                                          .cull_mode = gpu::CullMode::Front,
+                                                          .color_targets = {{frame::scene_color_format}},
+                                                          .depth_stencil = gpu::DepthStencilState{
+                                                              .format = frame::scene_depth_format}},
+                                                         std::move(outline_vs), std::move(outline_fs)));
   WEFT_TRY(auto shadow, frame::create_shadow_compare_sampler(device, "toon.shadow"));
   ToonPass pass;
   pass.state_ = std::make_shared<State>(
-      State{std::move(bind_layout), std::move(layout), std::move(surface), std::move(outline), std::move(shadow)});
+      State{std::move(bind_layout), layout, std::move(surface), std::move(outline), std::move(shadow)});
   return pass;
 }
 
@@ -80,12 +82,14 @@ Result<void> ToonPass::add(RenderGraph& graph, std::span<const ToonDraw> draws) 
     if (!group) return scene.context.encoder().report_error(group.error());
     const gpu::BindGroup& frame_group = scene.context.keep(std::move(*group));
     gpu::RenderPassEncoder& pass = scene.pass;
-    for (const gpu::RenderPipeline* pipeline : {&state->surface, &state->outline}) {
-      pass.set_pipeline(*pipeline);
+    for (const frame::PipelineSamples* set : {&state->surface, &state->outline}) {
+      auto pipeline = set->at(scene.context.device(), scene.samples);
+      if (!pipeline) return scene.context.encoder().report_error(pipeline.error());
+      pass.set_pipeline(**pipeline);
       pass.set_bind_group(0, frame_group);
       for (const ToonDraw& draw : draws) {
         const ToonMaterial& m = draw.material;
-        if (pipeline == &state->outline && !(m.outline_width > 0.0f)) continue;
+        if (set == &state->outline && !(m.outline_width > 0.0f)) continue;
         pass.push(ToonPush{draw.model, vec4(m.base_color, float(m.bands)), vec4(m.outline_color, m.outline_width),
                            vec4(m.shadows ? 1.0f : 0.0f, 0.0f, 0.0f, 0.0f)});
         pass.set_vertex_buffer(0, draw.mesh->vertices);

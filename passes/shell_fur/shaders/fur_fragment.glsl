@@ -1,5 +1,8 @@
 // The fragment shader of shells (FUR_SHELL), fins (FUR_FIN) and the naive method's shells
-// (FUR_NAIVE): keep the texel if the layer's band says so, then shade it.
+// (FUR_NAIVE): keep the texel if the layer's band says so, then shade it. Under MSAA
+// (draw.specular.w = 1, alpha-to-coverage on) the band's edges become a coverage ramp one
+// screen-space texel wide instead of a hard test, so a hair's edge covers some of a pixel's
+// samples rather than all or none.
 layout(location = 0) in vec3 world_position;
 layout(location = 1) in vec3 world_normal;
 layout(location = 2) in vec4 world_tangent;
@@ -10,7 +13,15 @@ layout(location = 5) in float fin_height;
 #endif
 layout(location = 0) out vec4 out_color;
 
+// 1 inside [lo, hi), 0 outside, ramping over one pixel's change of `a` at each end.
+float band_coverage(float a, float lo, float hi) {
+  float w = max(fwidth(a), 1e-4);
+  return clamp((a - lo) / w + 0.5, 0.0, 1.0) * clamp((hi - a) / w + 0.5, 0.0, 1.0);
+}
+
 void main() {
+  bool coverage = draw.specular.w > 0.5;
+  float alpha = 1.0;
   int layers = int(draw.uv_layers.z + 0.5);
 #ifdef FUR_FIN
   int layer = clamp(int(floor((1.0 - fin_height) * float(layers) + 0.5)), 0, layers);
@@ -20,16 +31,19 @@ void main() {
   vec2 st = uv * draw.uv_layers.xy;
   vec4 texel = texture(photo, st);
 #ifdef FUR_NAIVE
-  if (texel.a < 0.5) discard;
+  if (coverage) alpha = band_coverage(texel.a, 0.5, 2.0);
+  else if (texel.a < 0.5) discard;
   vec3 albedo = texel.rgb;
 #else
   FurLayer band = bands[layer];
-  if (texel.a < band.keep_min || texel.a >= band.keep_max) discard;
+  if (coverage) alpha = band_coverage(texel.a, band.keep_min, band.keep_max);
+  else if (texel.a < band.keep_min || texel.a >= band.keep_max) discard;
   vec3 albedo = texel.a > band.top ? texel.rgb * (code_to_luminance(max(band.top, 0.0)) / code_to_luminance(texel.a))
                                     : texel.rgb;
 #endif
   albedo *= draw.tint_thickness.rgb;
   vec3 n = normalize(world_normal);
   vec3 hair = draw.uv_layers.w < 0.5 ? n : hair_tangent(n, world_tangent, st);
-  out_color = vec4(fur_shade(albedo, world_position, n, hair), 1.0);
+  if (alpha <= 0.0) discard;
+  out_color = vec4(fur_shade(albedo, world_position, n, hair), alpha);
 }

@@ -115,6 +115,18 @@ void main() {
       nd = normalize(t * tn.x + b * tn.y + ng * max(tn.z, 1e-3));
     }
   }
+  // Silhouettes (issue 32): where the surface turns edge-on, the map's normals face away from
+  // the camera, and a normal that faces away reflects the environment from below the surface:
+  // a white rim along chin and neck and banded, glassy reflections (8-bit normals quantise a
+  // mirror). The map's detail fades to the geometric normal as the surface turns edge-on
+  // (detail there covers a sliver of a pixel anyway), and the shading normal is bent back
+  // until it faces the camera; reflections below the geometric surface are occluded further
+  // down (horizon occlusion).
+  float ng_dot_v = dot(ng, v);
+  nd = normalize(mix(ng, nd, smoothstep(0.0, 0.3, ng_dot_v)));
+  const float min_n_dot_v = 0.05;
+  float nd_dot_v = dot(nd, v);
+  if (nd_dot_v < min_n_dot_v) nd = normalize(nd + v * (min_n_dot_v - nd_dot_v));
   vec3 blur = clamp(draw.normal_blur.rgb, 0.0, 1.0);
   vec3 n_r = normalize(mix(nd, ng, blur.r));
   vec3 n_g = normalize(mix(nd, ng, blur.g));
@@ -197,8 +209,10 @@ void main() {
                          evaluate_irradiance_sh(frame.irradiance_sh, n_g).g,
                          evaluate_irradiance_sh(frame.irradiance_sh, n_b).b) * intensity;
   vec3 r = reflect(-v, nd);
-  vec3 mirror = texture(environment_map, equirect_uv(r, rotation)).rgb * intensity;
+  vec3 mirror = environment_glossy(environment_map, r, rotation, m) * intensity;
   vec3 glossy = mix(mirror, evaluate_irradiance_sh(frame.irradiance_sh, r) * intensity / PI, m);
+  float horizon = clamp(1.0 + 1.3 * dot(r, ng), 0.0, 1.0);  // Jimenez et al. 2016's fade below the surface
+  glossy *= horizon * horizon;
   vec3 ambient = (1.0 - f_ambient) * albedo * irradiance / PI + f_ambient * glossy;
 
   vec3 color = diffuse + specular * light + transmitted + ambient;

@@ -8,6 +8,7 @@ module;
 #include <chrono>
 #include <condition_variable>
 #include <expected>
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -16,6 +17,7 @@ module;
 #include <thread>
 #include <utility>
 #include <vector>
+#include <nlohmann/json.hpp>
 module weft.viewer;
 import weft.core;
 import weft.gpu;
@@ -24,6 +26,32 @@ import weft.renderer;
 import weft.governor;
 
 namespace weft::viewer::detail {
+namespace {
+
+// The pipeline a job renders with: the edited one, its file, the scene's, or the default.
+Result<pipeline::Pipeline> job_pipeline(const RenderJob& job, const scene::Scene& scene) {
+  if (job.pipeline) return *job.pipeline;
+  const std::filesystem::path& file = job.pipeline_file.empty() ? scene.pipeline : job.pipeline_file;
+  if (!file.empty()) return pipeline::load_pipeline(file);
+  return pipeline::default_pipeline();
+}
+
+// `base` with an accumulate pass ("refine") after the frame's image, averaging `samples`
+// samples -- or with its own accumulate pass's frames set, when it has one.
+Result<pipeline::Pipeline> refining_pipeline(const pipeline::Pipeline& base, std::uint32_t samples) {
+  for (const auto& pass : base.passes)
+    if (pass.type && pass.type->name == "accumulate") return pipeline::with_options(base, pass.name, {{"frames", samples}});
+  auto file = nlohmann::json::parse(pipeline::to_json(base));
+  std::string name = "refine";
+  while (file["passes"].contains(name)) name += "_";
+  const std::string image = file["outputs"][0].get<std::string>();
+  file["passes"][name] = {{"type", "accumulate"}, {"options", {{"frames", samples}}}};
+  file["connections"].push_back(image + " -> " + name + ".color");
+  file["outputs"][0] = name + ".color";
+  return pipeline::parse_pipeline(file.dump(), base.source + " (refined by accumulation in weft view)");
+}
+
+}  // namespace
 
 struct SceneRenderer::Shared {
   std::mutex mutex;
@@ -71,6 +99,12 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter, gpu::Dev
     };
     std::shared_ptr<const scene::Scene> source;
     scene::Scene scene;  // the thread's copy; only the camera changes between versions
+    // The refining pipeline (an accumulate pass after the image) and what it was made from.
+    std::shared_ptr<const pipeline::Pipeline> refining;
+    std::uint64_t refining_from = 0;
+    std::string refining_source;
+    std::uint32_t refining_samples = 0;
+    std::shared_ptr<const pipeline::Pipeline> refining_edited;
     bool renew = false;
     auto post = [&shared](RenderResult result) {
       std::lock_guard lock(shared->mutex);
@@ -110,6 +144,30 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter, gpu::Dev
       renderer::RenderOptions options{.width = job.width, .height = job.height, .quality = job.quality};
       options.pipeline_file = job.pipeline_file;
       options.pipeline = job.pipeline.get();  // the job holds it while the frame renders
+      // A still view refining: through a pipeline that averages the jittered samples, made
+      // again only when what it is made from changed (an edit, a reload of the file).
+      if (job.refine_samples > 1 && !job.reference && job.budget_ms <= 0.0) {
+        auto base = job_pipeline(job, scene);
+        if (!base) {
+          post({.id = job.id, .moving = job.moving, .reference = job.reference, .error = base.error().what()});
+          continue;
+        }
+        if (!refining || refining_from != base->content_hash || refining_source != base->source ||
+            refining_samples != job.refine_samples || refining_edited != job.pipeline) {
+          auto made_pipeline = refining_pipeline(*base, job.refine_samples);
+          if (!made_pipeline) {
+            post({.id = job.id, .moving = job.moving, .reference = job.reference, .error = made_pipeline.error().what()});
+            continue;
+          }
+          refining = std::make_shared<const pipeline::Pipeline>(std::move(*made_pipeline));
+          refining_from = base->content_hash;
+          refining_source = base->source;
+          refining_samples = job.refine_samples;
+          refining_edited = job.pipeline;  // kept: its address is not reused meanwhile
+        }
+        options.pipeline = refining.get();
+        options.sample_index = job.sample_index;
+      }
       if (!job.show.empty() && !job.reference) options.outputs = {job.show};
       if (job.budget_ms > 0.0) {
         governor::BudgetOptions budget{.budget_ms = job.budget_ms};

@@ -34,6 +34,7 @@ const std::map<std::string, Arity, std::less<>>& commands() {
       {"overlay", {1, 1, "overlay on|off"}},         {"quit", {0, 0, "quit"}},
       {"budget", {1, 1, "budget MILLISECONDS"}}, {"show", {1, 1, "show RESOURCE|frame"}},
       {"option", {3, 3, "option PASS OPTION VALUE"}},
+      {"accumulate", {1, 1, "accumulate SAMPLES"}}, {"settle", {0, 0, "settle"}},
   };
   return table;
 }
@@ -92,7 +93,8 @@ Result<Script> parse_script(const std::filesystem::path& path, const std::string
       return bad("'" + command.name + "' takes " + std::to_string(a.min) +
                  (a.max != a.min ? "+" : "") + " argument(s): " + a.usage);
     const std::string& n = command.name;
-    const bool numeric = n == "orbit" || n == "pan" || n == "zoom" || n == "fly" || n == "resize" || n == "wait" || n == "budget";
+    const bool numeric = n == "orbit" || n == "pan" || n == "zoom" || n == "fly" || n == "resize" || n == "wait" || n == "budget" ||
+                         n == "accumulate";
     if (numeric)
       for (const auto& arg : command.args) {
         if (!is_number(arg)) return bad("'" + n + "' expects numbers, got '" + arg + "': " + a.usage);
@@ -102,6 +104,8 @@ Result<Script> parse_script(const std::filesystem::path& path, const std::string
     if (n == "budget" && !(value_of(command.args[0]) > 0.0)) return bad("budget must be a positive number of milliseconds");
     if (n == "resize" && (!whole_within(command.args[0], 1, 16384) || !whole_within(command.args[1], 1, 16384)))
       return bad("resize needs whole sizes within 1..16384");
+    if (n == "accumulate" && !whole_within(command.args[0], 1, 4096))
+      return bad("accumulate needs a whole number of samples within 1..4096 (1: off)");
     if (n == "wait" && !whole_within(command.args[0], 0, 1e6)) return bad("wait needs a whole number of frames within 0..1000000");
     if ((n == "ui" || n == "overlay") && command.args[0] != "on" && command.args[0] != "off")
       return bad(n + " takes on or off");

@@ -152,6 +152,7 @@ Result<void> Session::open() {
     if (!parsed) return std::unexpected(parsed.error());
     script = std::move(*parsed);
   }
+  refine_samples = options.refine_samples.value_or(options.script ? 1u : 16u);
   return load(true);
 }
 
@@ -258,6 +259,10 @@ void Session::step_script() {
     if (!refined) return;
     waiting_refine = false;
   }
+  if (waiting_settle) {
+    if (!refined || (refine_samples > 1 && shown_sample + 1 < refine_samples && !comparison && show.empty())) return;
+    waiting_settle = false;
+  }
   if (waiting_compare) {
     if (comparison && !comparison->metrics) return;
     waiting_compare = false;
@@ -342,6 +347,16 @@ void Session::step_script() {
       // last camera move, as for a user who let go of the mouse).
       waiting_refine = true;
       return;
+    } else if (c.name == "accumulate") {
+      // Temporal refinement of the still view from now on: N samples (1: off); the view
+      // starts its accumulation again.
+      refine_samples = std::uint32_t(std::stoi(a[0]));
+      posted.reset();
+      continue;
+    } else if (c.name == "settle") {
+      // Held until the still view's accumulation is complete (or at once when it is off).
+      waiting_settle = true;
+      return;
     } else if (c.name == "screenshot") {
       screenshot = a[0];
       return;
@@ -399,16 +414,27 @@ void Session::post_job(const Wanted& want) {
   scene_renderer->submit({.scene = snapshot, .camera = view, .width = w, .height = h, .quality = want.quality,
                           .moving = want.moving, .describe = !want.moving && !graph,
                           .pipeline_file = options.pipeline.value_or(std::filesystem::path{}), .pipeline = edited_pipeline,
-                          .show = want.show,
+                          .show = want.show, .refine_samples = want.show.empty() ? refine_samples : 1,
                           .id = ++posted_id});
   if (posted && posted->moving && !want.moving && seconds_since(last_motion) < 3600) refine_requested = last_motion;
   posted = want;
   refined = false;
+  accumulated = 0;
   if (comparison) {  // the view changed: compare again once it is refined
     comparison->posted = false;
     comparison->metrics.reset();
     comparison->overlay_texture.reset();
   }
+}
+
+void Session::post_refine_sample() {
+  scene::Camera view = scene.camera;
+  view.position = posted->pose.position;
+  view.target = posted->pose.target;
+  scene_renderer->submit({.scene = snapshot, .camera = view, .width = std::uint32_t(posted->width),
+                          .height = std::uint32_t(posted->height), .quality = posted->quality,
+                          .pipeline_file = options.pipeline.value_or(std::filesystem::path{}), .pipeline = edited_pipeline,
+                          .refine_samples = refine_samples, .sample_index = ++accumulated, .id = ++posted_id});
 }
 
 // The governor runs on the render thread at the window's full size and the current camera: it
@@ -567,6 +593,12 @@ Result<void> Session::accept(RenderResult result, int window_w, int window_h) {
   if (frame_ms_history.size() > 120) frame_ms_history.erase(frame_ms_history.begin());
   if (result.id == posted_id && !result.moving) {
     refined = true;
+    shown_sample = accumulated;
+    // A still view refines: the next jittered sample, until the accumulation has them all
+    // (not while a comparison or the budget uses the render thread, nor for a resource shown).
+    if (refine_samples > 1 && accumulated + 1 < refine_samples && posted && !posted->moving && posted->show.empty() &&
+        !budget_running && !comparison)
+      post_refine_sample();
     if (frame.image.pixels.empty())
       refined_image.reset();  // read from the texture if a comparison needs it
     else

@@ -101,6 +101,11 @@ struct ViewOptions {
   //       one queue's work in order, so a long scene frame would hold the UI's frames back);
   //  Auto: Own on a CPU adapter, Shared on a GPU.
   enum class SceneDevice : std::uint8_t { Auto, Shared, Own } scene_device = SceneDevice::Auto;
+  // While the camera rests, average this many frames jittered by sub-pixel Halton offsets
+  // (an `accumulate` pass after the frame's image, unless the pipeline has one): the image
+  // converges towards supersampling. 1: off. Unset: 16, or 1 in a scripted session (its
+  // screenshots stay one frame each unless the script says `accumulate N`).
+  std::optional<std::uint32_t> refine_samples;
 };
 // Runs until the window closes, Escape, or the script's `quit`; the exit code (non-zero with
 // a one-line reason on stderr: no display, a bad scene or script, validation messages).
@@ -208,6 +213,10 @@ struct RenderJob {
   // null: pipeline_file's (or the scene's, or the default) as it is.
   std::shared_ptr<const pipeline::Pipeline> pipeline;
   std::string show;        // a resource to show instead of the frame's image (its picture)
+  // Temporal refinement of a still view: > 1 renders through a pipeline with an accumulate
+  // pass (averaging this many samples), `sample_index` the sample (0 starts afresh).
+  std::uint32_t refine_samples = 1;
+  std::uint32_t sample_index = 0;
   std::uint64_t id = 0;
 };
 // What the governor chose: per feature (its material type), the preset's knob values.
@@ -302,6 +311,10 @@ struct Session {
   std::uint64_t posted_id = 0;
   std::uint64_t reference_jobs = 0;  // ids of reference jobs: their own count, apart from posted_id
   bool refined = false;         // last_frame is the full-resolution image of what is wanted now
+  std::uint32_t refine_samples = 16;  // ViewOptions::refine_samples, or the script's `accumulate`
+  std::uint32_t accumulated = 0;      // the sample index of the still view's last job posted
+  std::uint32_t shown_sample = 0;     // the sample index of the still view's image on screen
+  bool waiting_settle = false;        // the script's `settle`: hold it until the accumulation is done
   bool waiting_refine = false;  // the script's `refine`: hold the script until refined
   bool waiting_compare = false;  // the script's `compare`: hold it until the metrics are in
   // The frame-time budget (Budget panel, script `budget`): the target, whether the governor
@@ -356,6 +369,8 @@ struct Session {
   void request_budget();
   Result<void> update_comparison();  // posts the reference job once the view is refined  // a knob, material, preset or reload: a new snapshot, a new graph
   void post_job(const Wanted& want);
+  // The next jittered sample of the still view just refined (temporal refinement).
+  void post_refine_sample();
   Result<void> accept(RenderResult result, int window_w, int window_h);
   Result<void> present_frame();
   Result<void> save_screenshot(const gpu::Texture& texture, const std::filesystem::path& path);

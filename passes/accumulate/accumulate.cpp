@@ -1,0 +1,149 @@
+// The accumulate pass type: the running mean of a still view's jittered frames, in a history
+// this pass keeps between frames (two textures, read one and write the other).
+module;
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <expected>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+#include <weft/try.h>
+#include "weft_pass_accumulate_shaders.h"
+module weft.base_pass.accumulate;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+import weft.pipeline;
+
+namespace weft::passes {
+namespace {
+
+struct Push {
+  float weight;
+  std::uint32_t display_encoded;
+};
+// The history is linear light in half floats whatever the input: 8 bits would round every
+// step of the mean (1/255 is more than a 64th sample contributes to a dark pixel).
+constexpr gpu::Format history_format = gpu::Format::RGBA16Float;
+constexpr gpu::Format color_formats[] = {gpu::Format::RGBA8Unorm, frame::scene_color_format};
+
+struct AccumulateGpu {
+  frame::FullscreenPipeline blend;                               // into the history
+  std::map<gpu::Format, frame::FullscreenPipeline> output;       // by the input's format
+  gpu::Sampler sampler;                                          // unused by texelFetch; bound for the layout
+};
+
+class AccumulateFramePass final : public pipeline::FramePass {
+ public:
+  explicit AccumulateFramePass(std::uint32_t frames) : frames_(frames) {}
+
+  Result<void> prepare(gpu::Device& device, const pipeline::PassFrame&) override {
+    if (gpu_) return {};
+    WEFT_TRY(auto blend, frame::create_fullscreen_pipeline(device, "accumulate", shaders::accumulate_frag(), 2, false,
+                                                           sizeof(Push), history_format));
+    std::map<gpu::Format, frame::FullscreenPipeline> output;
+    for (gpu::Format f : color_formats) {
+      WEFT_TRY(auto p, frame::create_fullscreen_pipeline(device, "accumulate.output", shaders::accumulate_output_frag(),
+                                                         1, false, sizeof(Push), f));
+      output.emplace(f, std::move(p));
+    }
+    WEFT_TRY(auto sampler, device.create_sampler({.label = "accumulate", .max_lod = 0}));
+    gpu_ = std::make_shared<AccumulateGpu>(AccumulateGpu{std::move(blend), std::move(output), std::move(sampler)});
+    device_ = &device;
+    return {};
+  }
+
+  Result<void> add(RenderGraph& graph, const pipeline::PassFrame& frame, pipeline::PassSlots& slots) override {
+    const std::string name(slots.pass_name());
+    if (!gpu_) return fail(ErrorKind::Internal, "pass '{}': add() before prepare()", name);
+    const TextureHandle color = slots.input("color");
+    const auto desc = graph.texture_desc(color);
+    if (!desc || !gpu_->output.contains(desc->format))
+      return fail(ErrorKind::Unsupported, "pass '{}': input 'color' must be rgba8unorm or rgba16float", name);
+    const gpu::Extent3D size = desc->size.resolve({frame.width, frame.height, 1});
+
+    // A new view (sample 0), a sample out of sequence (a frame was skipped or failed), or a
+    // new size starts the mean afresh.
+    const bool sequential = frame.sample_index > 0 && last_sample_ && frame.sample_index == *last_sample_ + 1;
+    if (!history_[0] || size.width != size_.width || size.height != size_.height) {
+      for (int i = 0; i < 2; ++i) {
+        WEFT_TRY(auto t, device_->create_texture({.label = weft::format("{}.history.{}", name, i),
+                                                  .size = size,
+                                                  .format = history_format,
+                                                  .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::ColorAttachment}));
+        history_[i] = std::move(t);
+      }
+      size_ = size;
+      count_ = 0;
+    } else {
+      count_ = sequential ? count_ + 1 : 0;
+    }
+    last_sample_ = frame.sample_index;
+
+    const std::uint32_t n = std::min(count_ + 1, frames_);
+    const Push push{.weight = 1.0f / float(n), .display_encoded = desc->format == gpu::Format::RGBA8Unorm ? 1u : 0u};
+    const auto bytes = std::as_bytes(std::span(&push, 1));
+    const std::vector<std::byte> push_bytes(bytes.begin(), bytes.end());
+
+    // Last frame's result was left sampled (mark_output below). The texture written is
+    // imported as undefined: the draw covers every texel, so its old contents do not matter.
+    const int read = int(flip_), write = 1 - read;
+    const TextureHandle history = graph.import_texture(name + ".history", &*history_[read],
+                                                       count_ == 0 ? gpu::Access::Undefined : gpu::Access::ShaderRead);
+    const TextureHandle next = graph.import_texture(name + ".history_next", &*history_[write], gpu::Access::Undefined);
+    WEFT_TRY(const TextureHandle blended,
+             frame::add_fullscreen_pass(graph, {.name = name, .inputs = {color, history}, .target = next,
+                                                .format = history_format, .push = push_bytes},
+                                        gpu_->blend, gpu_->sampler, gpu_));
+    graph.mark_output(blended, gpu::Access::ShaderRead);
+    WEFT_TRY(const TextureHandle out,
+             frame::add_fullscreen_pass(graph, {.name = name + ".output", .inputs = {blended}, .target = slots.target("color"),
+                                                .format = desc->format, .push = push_bytes},
+                                        gpu_->output.at(desc->format), gpu_->sampler, gpu_));
+    slots.set_output("color", out);
+    flip_ = !flip_;
+    return {};
+  }
+
+ private:
+  std::uint32_t frames_;
+  std::shared_ptr<AccumulateGpu> gpu_;
+  gpu::Device* device_ = nullptr;
+  std::array<std::optional<gpu::Texture>, 2> history_;
+  gpu::Extent3D size_{0, 0, 1};
+  std::uint32_t count_ = 0;  // samples in the history before this frame's
+  std::optional<std::uint32_t> last_sample_;
+  bool flip_ = false;
+};
+
+Result<std::unique_ptr<pipeline::FramePass>> create(const pipeline::PassOptions& options) {
+  return std::make_unique<AccumulateFramePass>(std::uint32_t(options.integer("frames")));
+}
+
+}  // namespace
+
+const pipeline::PassTypeDescriptor& accumulate_pass_type() {
+  static const pipeline::PassTypeDescriptor d{
+      .name = "accumulate",
+      .summary = "Temporal accumulation of a still view: the mean of the frames the renderer jitters by Halton "
+                 "sub-pixel offsets (RenderOptions::sample_index), kept between frames; converges towards "
+                 "supersampling while the camera rests.",
+      .doc = "docs/pipelines.md#accumulate",
+      .inputs = {{.name = "color", .formats = {gpu::Format::RGBA8Unorm, frame::scene_color_format},
+                  .meaning = "the colour to average (display-encoded colour is averaged as light)"}},
+      .outputs = {{.name = "color", .same_as = "color", .meaning = "the mean of the samples so far"}},
+      .options = {pipeline::integer_option("frames", 1, 4096, 64,
+                                           "samples averaged with equal weight; later ones keep an exponential mean "
+                                           "of about this many (1: no accumulation)",
+                                           {1, 4, 16, 64})},
+      .create = &create,
+  };
+  return d;
+}
+
+}  // namespace weft::passes

@@ -1,0 +1,12 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// The accumulated (linear) history back in the input's encoding.
+#include "frame.glsl"
+layout(set = 0, binding = 0) uniform sampler2D history;
+layout(push_constant) uniform Settings { float weight; uint display_encoded; } settings;
+layout(location = 0) out vec4 out_color;
+
+void main() {
+  vec4 c = texelFetch(history, ivec2(gl_FragCoord.xy), 0);
+  out_color = settings.display_encoded != 0u ? vec4(linear_to_srgb(c.rgb), c.a) : c;
+}
