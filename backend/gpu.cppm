@@ -137,6 +137,9 @@ struct AdapterFeatures {
   // VK_KHR_cooperative_matrix with its cooperativeMatrix feature: subgroup-wide matrix
   // multiply-add (tensor cores and the like). Lavapipe (Mesa 25) reports it too.
   bool cooperative_matrix = false;
+  // sampleRateShading: a fragment shader may run once per sample (GLSL's `sample` inputs),
+  // which weft's devices then enable.
+  bool sample_rate_shading = false;
 };
 
 struct AdapterInfo {

@@ -161,6 +161,7 @@ AdapterInfo describe(VkPhysicalDevice pd) {
   // anisotropy off there (trilinear only) rather than draw such meshes black.
   if (driver.driverID == VK_DRIVER_ID_MESA_LLVMPIPE) l.max_sampler_anisotropy = 1.0f;
   info.features = detect_features(pd);
+  info.features.sample_rate_shading = supported.sampleRateShading == VK_TRUE;
   return info;
 }
 
@@ -338,6 +339,7 @@ Result<Device> Adapter::request_device(const DeviceDescriptor& desc) const {
   e12.scalarBlockLayout = f12.scalarBlockLayout;
   VkPhysicalDeviceFeatures2 enabled{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, &e12};
   enabled.features.samplerAnisotropy = supported.features.samplerAnisotropy;
+  enabled.features.sampleRateShading = supported.features.sampleRateShading;
   enabled.features.fillModeNonSolid = supported.features.fillModeNonSolid;
   enabled.features.shaderStorageImageWriteWithoutFormat = supported.features.shaderStorageImageWriteWithoutFormat;
   enabled.features.shaderStorageImageReadWithoutFormat = supported.features.shaderStorageImageReadWithoutFormat;

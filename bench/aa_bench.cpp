@@ -337,7 +337,8 @@ int main(int argc, char** argv) {
     if (!(limits.color_sample_counts & count) || !(limits.depth_sample_counts & count)) continue;
     auto p = pipeline::with_options(*msaa, "scene", {{"msaa", count}});
     if (!p) return die(p.error().what());
-    modes.push_back({.name = weft::format("MSAA {}x (fur: alpha to coverage)", count), .pipeline = std::move(*p)});
+    // Fur: each sample tests its own texel where the adapter shades per sample, else alpha to coverage.
+    modes.push_back({.name = weft::format("MSAA {}x", count), .pipeline = std::move(*p)});
   }
   for (std::uint32_t n : o.accumulate) {
     auto p = pipeline::with_options(*accumulate, "accumulate", {{"frames", n}});
@@ -362,7 +363,8 @@ int main(int argc, char** argv) {
     std::string name, material;
     std::vector<bool> mask;
   };
-  std::vector<Group> groups{{"fur", "fur", {}}, {"cloth", "neural_btf", {}}, {"teapot", "ssdf", {}}};
+  // Registered material type names (scene files may use aliases: "fur", "btf", "ssdf").
+  std::vector<Group> groups{{"fur", "shell_fur", {}}, {"cloth", "neural_btf", {}}, {"teapot", "ssdf_lighting", {}}};
   {
     scene::Scene empty = scene;
     empty.objects.clear();
@@ -370,7 +372,12 @@ int main(int argc, char** argv) {
     if (!nothing) return die(nothing.error().what());
     for (auto& g : groups) {
       scene::Scene only = only_objects_of(scene, g.material);
-      if (g.name == "teapot") std::erase_if(only.objects, [](const scene::Object& ob) { return ob.name != "teapot"; });
+      if (g.name == "teapot") {
+        // Its outline only: in a standard material, so no SSDF is baked for a scene of one object.
+        std::erase_if(only.objects, [](const scene::Object& ob) { return ob.name != "teapot"; });
+        only.materials.push_back(scene::Material{.name = "mask"});
+        for (auto& ob : only.objects) ob.material = std::uint32_t(only.materials.size() - 1);
+      }
       if (only.objects.empty()) continue;
       auto with = render(*modes[0].renderer, only, modes[0].pipeline, rw, rh, 1);
       if (!with) return die(with.error().what());

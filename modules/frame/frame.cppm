@@ -67,6 +67,9 @@ class PipelineSamples {
   Result<const gpu::RenderPipeline*> at(gpu::Device& device, std::uint32_t samples) const;
   [[nodiscard]] const gpu::RenderPipeline& single_sample() const;
   [[nodiscard]] bool alpha_to_coverage() const;
+  // The fragment shader of the pipelines of more than one sample from now on (a variant that
+  // runs per sample: shell fur's hair test); call it before the first at(device, n > 1).
+  void set_multisample_fragment(gpu::ShaderModule fragment);
 
  private:
   struct State;

@@ -22,6 +22,7 @@ struct PipelineSamples::State {
   std::shared_ptr<const gpu::PipelineLayout> layout;  // desc.layout: the caller's may move
   std::optional<gpu::ShaderModule> vertex;  // always set (a module has no empty state)
   std::optional<gpu::ShaderModule> fragment;
+  std::optional<gpu::ShaderModule> multisample_fragment;  // for counts above 1, when set
   bool alpha_to_coverage = false;
   std::mutex mutex;
   std::map<std::uint32_t, gpu::RenderPipeline> pipelines;  // by sample count; nodes stay put
@@ -55,11 +56,16 @@ Result<const gpu::RenderPipeline*> PipelineSamples::at(gpu::Device& device, std:
   gpu::RenderPipelineDescriptor desc = state_->desc;
   desc.label += weft::format(" ({}x MSAA)", samples);
   desc.multisample = {.count = samples, .alpha_to_coverage = state_->alpha_to_coverage && samples > 1};
+  if (samples > 1 && state_->multisample_fragment) desc.fragment = &*state_->multisample_fragment;
   WEFT_TRY(auto pipeline, device.create_render_pipeline(desc));
   return &state_->pipelines.emplace(samples, std::move(pipeline)).first->second;
 }
 
 const gpu::RenderPipeline& PipelineSamples::single_sample() const { return state_->pipelines.at(1u); }
+void PipelineSamples::set_multisample_fragment(gpu::ShaderModule fragment) {
+  const std::lock_guard lock(state_->mutex);
+  state_->multisample_fragment.emplace(std::move(fragment));
+}
 bool PipelineSamples::alpha_to_coverage() const { return state_->alpha_to_coverage; }
 
 gpu::RenderPipelineDescriptor lit_mesh_pipeline_descriptor(std::string label, const gpu::PipelineLayout& layout,

@@ -248,6 +248,10 @@ struct NeuralBTFMaterial::State {
   gpu::PipelineLayout resolve_pipeline_layout;
   gpu::RenderPipeline resolve_pipeline;
   gpu::Sampler nearest;
+  // An MSAA frame's last step instead of the resolve: the objects drawn again into the
+  // multisampled colour and depth, each pixel taking its decode (neural_btf_composite.frag).
+  std::shared_ptr<const gpu::PipelineLayout> composite_layout;
+  frame::PipelineSamples composite_pipeline;
 };
 
 namespace {
@@ -356,6 +360,18 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
                                                            .color_targets = {{frame::scene_color_format}}}));
   WEFT_TRY(auto nearest, device.create_sampler(
         {.label = "neural-btf-gbuffer", .mag_filter = gpu::FilterMode::Nearest, .min_filter = gpu::FilterMode::Nearest}));
+  WEFT_TRY(auto made_composite_layout,
+           device.create_pipeline_layout({.label = "neural-btf-composite",
+                                          .bind_group_layouts = {&frame_layout, &resolve_layout},
+                                          .push_constant_size = sizeof(NeuralBtfConstants)}));
+  const auto composite_layout = std::make_shared<const gpu::PipelineLayout>(std::move(made_composite_layout));
+  WEFT_TRY(auto composite_vs, device.create_shader_module(
+        {.label = "neural_btf.vert", .stage = ShaderStage::Vertex, .spirv = shaders::neural_btf_vert()}));
+  WEFT_TRY(auto composite_fs, device.create_shader_module({.label = "neural_btf_composite.frag",
+                                                          .stage = ShaderStage::Fragment,
+                                                          .spirv = shaders::neural_btf_composite_frag()}));
+  WEFT_TRY(auto composite_pipeline, frame::create_lit_mesh_pipelines(device, "neural-btf-composite", composite_layout,
+                                                                     std::move(composite_vs), std::move(composite_fs)));
 
   NeuralBTFMaterial pass;
   pass.state_ = std::make_shared<State>(State{std::move(frame_layout), std::move(material_layout), layout,
@@ -365,7 +381,7 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
                                               std::move(decode_pipeline_layout), std::move(decode_tiled),
                                               std::move(decode_generic), std::move(resolve_layout),
                                               std::move(resolve_pipeline_layout), std::move(resolve_pipeline),
-                                              std::move(nearest)});
+                                              std::move(nearest), composite_layout, std::move(composite_pipeline)});
   return pass;
 }
 
@@ -416,14 +432,13 @@ Result<void> NeuralBTFMaterial::add(RenderGraph& graph, std::span<const NeuralBt
     if (!d.mesh || d.material >= materials.size() || !materials[d.material])
       return fail(ErrorKind::InvalidArgument, "neural BTF pass: a draw names material {} of {} (or has no mesh)",
                   d.material, materials.size());
-  // An MSAA frame draws every material through the fragment path: shaded once per pixel and
-  // covered per sample, as every lit pass is. The batched path's G-buffer holds one surface
-  // per pixel; decoding it per sample would cost `samples` decodes per edge pixel, and a
-  // resolved G-buffer would mix the cloth's inputs with its neighbours' (docs/anti-aliasing.md).
-  const bool multisampled = frame::scene_sample_count(graph) > 1;
+  // An MSAA frame keeps the batched path: one decode per pixel (as MSAA shades once per pixel),
+  // then the objects drawn again into the multisampled targets, covered per sample, each
+  // pixel taking its decode (add_batched; docs/anti-aliasing.md#msaa). Through the fragment
+  // path instead -- the MLP in the fragment shader -- an MSAA showcase frame spent 26 times
+  // as long on the cloth on lavapipe.
   std::vector<NeuralBtfDraw> batched_draws, fragment_draws;
-  for (const auto& d : draws)
-    (batched(*materials[d.material]) && !multisampled ? batched_draws : fragment_draws).push_back(d);
+  for (const auto& d : draws) (batched(*materials[d.material]) ? batched_draws : fragment_draws).push_back(d);
   if (!batched_draws.empty())
     if (auto ok = add_batched(graph, std::move(batched_draws), materials, width, height); !ok) return ok;
   if (fragment_draws.empty()) return {};
@@ -480,6 +495,10 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
   if (width == 0 || height == 0)
     return fail(ErrorKind::InvalidArgument, "neural BTF pass: the frame is {} x {} pixels", width, height);
   WEFT_TRY(frame::SceneTargets shared, frame::scene_targets(graph.blackboard(), {.environment = false}));
+  // In an MSAA frame the G-buffer (one sample per pixel) cannot share the multisampled depth:
+  // it gets a depth of its own, the objects' nearest surface in each pixel, and the composite
+  // at the end depth-tests them against the scene's samples.
+  const std::uint32_t samples = frame::scene_sample_count(graph);
   // The distinct models, in the order the G-buffer's marker numbers them.
   struct Model {
     const gpu::Buffer* buffer;
@@ -515,9 +534,13 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
         for (int i = 0; i < 4; ++i)
           d.gbuffer[i] = b.write(b.create_texture(gbuffer_names[i], {.size = RelativeSize{1.0f}, .format = gbuffer_format}),
                                  TextureUse::ColorAttachment);
-        d.depth = b.write(shared.depth, TextureUse::DepthAttachment);
+        d.depth = samples > 1 ? b.write(b.create_texture("neural_btf_depth", {.size = RelativeSize{1.0f},
+                                                                             .format = frame::scene_depth_format}),
+                                        TextureUse::DepthAttachment)
+                              : b.write(shared.depth, TextureUse::DepthAttachment);
       },
-      [state, draws, materials, marker_of_draw](const PassResources& res, const GeometryData& d, PassContext& ctx) {
+      [state, draws, materials, marker_of_draw, samples](const PassResources& res, const GeometryData& d,
+                                                         PassContext& ctx) {
         auto group = ctx.device().create_bind_group(
             {.label = "neural-btf-frame",
              .layout = &state->frame_layout,
@@ -528,7 +551,8 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
         for (int i = 0; i < 4; ++i)
           rp.color_attachments.push_back({.view = &res.view(d.gbuffer[i]), .load = gpu::LoadOp::Clear,
                                           .clear_color = vec4(0.0f)});
-        rp.depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .load = gpu::LoadOp::Load};
+        rp.depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth),
+                                                   .load = samples > 1 ? gpu::LoadOp::Clear : gpu::LoadOp::Load};
         auto pass = ctx.encoder().begin_render_pass(rp);
         pass.set_pipeline(state->gbuffer_pipeline);
         pass.set_bind_group(0, frame_group);
@@ -648,6 +672,59 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
           pass.end();
         });
     radiance = decode.radiance;
+  }
+
+  if (samples > 1) {
+    struct CompositeData {
+      BufferHandle uniforms;
+      TextureHandle shadow_map, light;
+      BufferHandle radiance;
+      TextureHandle color, depth;
+    };
+    auto& composite = graph.add_pass<CompositeData>(
+        "neural_btf_composite",
+        [&](PassBuilder& b, CompositeData& d) {
+          d.uniforms = b.read(shared.uniforms, BufferUse::Uniform);
+          d.shadow_map = b.read(shared.shadow_map, TextureUse::Sampled);
+          d.light = b.read(g.gbuffer[1], TextureUse::Sampled);
+          d.radiance = b.read(radiance, BufferUse::StorageRead);
+          d.color = b.write(shared.color, TextureUse::ColorAttachment);
+          d.depth = b.write(shared.depth, TextureUse::DepthAttachment);
+        },
+        [state, draws, materials, marker_of_draw, samples](const PassResources& res, const CompositeData& d,
+                                                           PassContext& ctx) {
+          auto pipeline = state->composite_pipeline.at(ctx.device(), samples);
+          if (!pipeline) return ctx.encoder().report_error(pipeline.error());
+          auto frame_group = ctx.device().create_bind_group(
+              {.label = "neural-btf-frame",
+               .layout = &state->frame_layout,
+               .entries = {gpu::bind(0, res.buffer(d.uniforms)), gpu::bind(1, res.view(d.shadow_map), &state->shadow_compare)}});
+          if (!frame_group) return ctx.encoder().report_error(frame_group.error());
+          auto decoded = ctx.device().create_bind_group(
+              {.label = "neural-btf-composite",
+               .layout = &state->resolve_layout,
+               .entries = {gpu::bind(0, res.view(d.light), &state->nearest), gpu::bind(1, res.buffer(d.radiance))}});
+          if (!decoded) return ctx.encoder().report_error(decoded.error());
+          const auto& frame_kept = ctx.keep(std::move(*frame_group));
+          const auto& decoded_kept = ctx.keep(std::move(*decoded));
+          auto pass = ctx.encoder().begin_render_pass(
+              {.label = "neural_btf_composite",
+               .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}},
+               .depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .load = gpu::LoadOp::Load}});
+          pass.set_pipeline(**pipeline);
+          pass.set_bind_group(0, frame_kept);
+          pass.set_bind_group(1, decoded_kept);
+          for (std::size_t i = 0; i < draws.size(); ++i) {
+            const NeuralBtfDraw& draw = draws[i];
+            pass.push(draw_constants(draw, materials[draw.material]->params, marker_of_draw[i]));
+            pass.set_vertex_buffer(0, draw.mesh->vertices);
+            pass.set_index_buffer(draw.mesh->indices);
+            pass.draw_indexed(draw.mesh->index_count);
+          }
+          pass.end();
+        });
+    frame::put_scene_targets(graph.blackboard(), {.color = composite.color, .depth = composite.depth});
+    return {};
   }
 
   struct ResolveData {

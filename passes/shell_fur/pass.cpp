@@ -152,6 +152,19 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
                           std::move(*fin_vs), std::move(*fin_fs), true));
   WEFT_TRY(auto naive, frame::create_lit_mesh_pipelines(device, "shell_fur.naive", layout, std::move(naive_vs),
                                                         std::move(*naive_fs), frame::vertex_layout(), true));
+  // Under MSAA each sample tests its own texel (supersampling the hair) where the adapter can
+  // shade per sample; elsewhere alpha-to-coverage ramps the band's edges (fur_fragment.glsl).
+  if (device.adapter_info().features.sample_rate_shading) {
+    auto shell_per_sample = module("shell_fur/shell_per_sample.frag", gpu::ShaderStage::Fragment, shaders::shell_per_sample_frag());
+    auto fin_per_sample = module("shell_fur/fin_per_sample.frag", gpu::ShaderStage::Fragment, shaders::fin_per_sample_frag());
+    auto naive_per_sample =
+        module("shell_fur/shell_naive_per_sample.frag", gpu::ShaderStage::Fragment, shaders::shell_naive_per_sample_frag());
+    for (auto* m : {&shell_per_sample, &fin_per_sample, &naive_per_sample})
+      if (!*m) return std::unexpected(m->error());
+    shells.set_multisample_fragment(std::move(*shell_per_sample));
+    fins.set_multisample_fragment(std::move(*fin_per_sample));
+    naive.set_multisample_fragment(std::move(*naive_per_sample));
+  }
   // The skin's depth pre-pass: the skin (instance N of shell.vert) pushed back by a few depth
   // steps, colour untouched (adding zero). Any bias keeps the image: it only lets through
   // fragments that the skin, drawn again at its exact depth, hides anyway.

@@ -441,6 +441,59 @@ TEST_CASE("the cushion scene through the batched decoder equals the fragment dec
   weft::test::expect_no_validation_messages();
 }
 
+TEST_CASE("an MSAA frame keeps the batched decode, composited per sample: inside the cloth it equals the single-sample frame") {
+  const char* source = std::getenv("WEFT_SOURCE_DIR");
+  REQUIRE_MESSAGE(source, "WEFT_SOURCE_DIR is set by ctest");
+  auto desc = scene::load_scene(std::filesystem::path(source) / "examples/scenes/neural_btf.json");
+  REQUIRE_MESSAGE(desc, (desc ? "" : desc.error().message));
+  auto base = pipeline::default_pipeline();
+  REQUIRE(base);
+  auto msaa = pipeline::with_options(*base, "scene", {{"msaa", 4}});
+  REQUIRE_MESSAGE(msaa, (msaa ? "" : msaa.error().message));
+  const std::uint32_t w = 240, h = 136;
+  auto render = [&](const pipeline::Pipeline* p, bool black) {
+    scene::Scene s = *desc;
+    if (black)
+      for (auto& m : s.materials)
+        if (m.params.is_object() && m.params.contains("model")) m.params["tint"] = {0.0, 0.0, 0.0};
+    renderer::RenderOptions o{.width = w, .height = h, .aces = false, .read_hdr = true};
+    o.pipeline = p;
+    auto frame = shared_renderer().render(s, o);
+    REQUIRE_MESSAGE(frame, (frame ? "" : frame.error().message));
+    return std::move(*frame);
+  };
+  const auto single = render(&*base, false), black = render(&*base, true), multi = render(&*msaa, false);
+  auto has = [](const renderer::Frame& f, const char* pass) {
+    return std::find(f.passes.begin(), f.passes.end(), pass) != f.passes.end();
+  };
+  CHECK(has(multi, "neural_btf_decode"));
+  CHECK(has(multi, "neural_btf_composite"));
+  CHECK_FALSE(has(multi, "neural_btf_fragment"));
+  auto cloth = [&](std::uint32_t x, std::uint32_t y) {
+    for (std::uint32_t c = 0; c < 3; ++c)
+      if (std::abs(single.hdr.at(x, y, c) - black.hdr.at(x, y, c)) > 1e-3) return true;
+    return false;
+  };
+  std::size_t inside = 0;
+  double worst = 0.0;
+  for (std::uint32_t y = 1; y + 1 < h; ++y)
+    for (std::uint32_t x = 1; x + 1 < w; ++x) {
+      bool all = true;
+      for (int dy = -1; dy <= 1 && all; ++dy)
+        for (int dx = -1; dx <= 1 && all; ++dx) all = cloth(x + dx, y + dy);
+      if (!all) continue;
+      ++inside;
+      for (std::uint32_t c = 0; c < 3; ++c) {
+        const double a = single.hdr.at(x, y, c);
+        worst = std::max(worst, std::abs(multi.hdr.at(x, y, c) - a) / std::max(std::abs(a), 1e-2));
+      }
+    }
+  MESSAGE("MSAA against single-sample inside the cloth: " << inside << " pixels, max relative |Δ| " << worst);
+  CHECK(inside > w * h / 30);
+  CHECK(worst <= 4e-3);  // the same decode in all four samples, through half floats
+  weft::test::expect_no_validation_messages();
+}
+
 TEST_CASE("the batched path over two models and all four tap classes equals the fragment path; edge tiles partly off-frame") {
   // Four quads: taps per pixel 1 (nearest, no ambient), 2 (nearest + ambient), 4 (bilinear, no
   // ambient) and 8 (bilinear + ambient), so each of the decode's four lists is used; the paper-

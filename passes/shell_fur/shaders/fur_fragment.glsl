@@ -6,7 +6,13 @@
 layout(location = 0) in vec3 world_position;
 layout(location = 1) in vec3 world_normal;
 layout(location = 2) in vec4 world_tangent;
+#ifdef FUR_PER_SAMPLE
+// Each sample of an MSAA pixel looks its own texel up and keeps or drops itself: the hair
+// test supersampled, as accumulating jittered frames would (the shader runs per sample).
+layout(location = 3) sample in vec2 uv;
+#else
 layout(location = 3) in vec2 uv;
+#endif
 layout(location = 4) flat in int shell_layer;
 #ifdef FUR_FIN
 layout(location = 5) in float fin_height;
@@ -20,7 +26,11 @@ float band_coverage(float a, float lo, float hi) {
 }
 
 void main() {
+#ifdef FUR_PER_SAMPLE
+  bool coverage = false;  // each sample tests its own texel: a hard test per sample
+#else
   bool coverage = draw.specular.w > 0.5;
+#endif
   float alpha = 1.0;
   int layers = int(draw.uv_layers.z + 0.5);
 #ifdef FUR_FIN
