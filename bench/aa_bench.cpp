@@ -208,6 +208,7 @@ struct Mode {
   std::string name;
   pipeline::Pipeline pipeline;
   std::uint32_t samples = 1;  // frames accumulated (sample_index 0 .. samples - 1)
+  const scene::Scene* scene = nullptr;  // the scene with a knob changed; null: the scene as loaded
   std::optional<renderer::Renderer> renderer;
   image::Image8 image;
   std::vector<double> frame_ms;
@@ -333,12 +334,18 @@ int main(int argc, char** argv) {
   std::vector<Mode> modes;
   modes.push_back({.name = "none", .pipeline = *base});
   modes.push_back({.name = "FXAA", .pipeline = *fxaa});
+  // The fur's "msaa_hair" knob: coverage (the medium preset's) and per-sample hair tests.
+  scene::Scene per_sample_hair = scene;
+  for (auto& m : per_sample_hair.materials)
+    if (m.type == "shell_fur") m.params["msaa_hair"] = "per_sample";
   for (std::uint32_t count : {2u, 4u, 8u}) {
     if (!(limits.color_sample_counts & count) || !(limits.depth_sample_counts & count)) continue;
     auto p = pipeline::with_options(*msaa, "scene", {{"msaa", count}});
     if (!p) return die(p.error().what());
-    // Fur: each sample tests its own texel where the adapter shades per sample, else alpha to coverage.
-    modes.push_back({.name = weft::format("MSAA {}x", count), .pipeline = std::move(*p)});
+    modes.push_back({.name = weft::format("MSAA {}x, fur by coverage", count), .pipeline = *p});
+    if (session->adapter.info().features.sample_rate_shading)
+      modes.push_back({.name = weft::format("MSAA {}x, fur per sample", count), .pipeline = std::move(*p),
+                       .scene = &per_sample_hair});
   }
   for (std::uint32_t n : o.accumulate) {
     auto p = pipeline::with_options(*accumulate, "accumulate", {{"frames", n}});
@@ -386,7 +393,7 @@ int main(int argc, char** argv) {
   }
   for (auto& m : modes) {
     std::fprintf(stderr, "rendering %s ...\n", m.name.c_str());
-    auto im = render(*m.renderer, scene, m.pipeline, o.width, o.height, m.samples);
+    auto im = render(*m.renderer, m.scene ? *m.scene : scene, m.pipeline, o.width, o.height, m.samples);
     if (!im) return die(weft::format("{}: {}", m.name, im.error().what()));
     m.image = std::move(*im);
   }
@@ -461,7 +468,7 @@ int main(int argc, char** argv) {
     for (auto& m : modes) {  // warm-up: pipelines, transients and caches at this size
       options.pipeline = &m.pipeline;
       options.sample_index = 0;
-      if (auto f = m.renderer->render(scene, options); !f) return die(f.error().what());
+      if (auto f = m.renderer->render(m.scene ? *m.scene : scene, options); !f) return die(f.error().what());
     }
     for (int round = 0; round < o.runs; ++round)
       for (auto& m : modes) {
@@ -469,7 +476,7 @@ int main(int argc, char** argv) {
         // An accumulating option in its steady state: a later sample, which reads the history.
         options.sample_index = m.samples > 1 ? std::uint32_t(round + 1) : 0;
         const auto f0 = Clock::now();
-        auto f = m.renderer->render(scene, options);
+        auto f = m.renderer->render(m.scene ? *m.scene : scene, options);
         if (!f) return die(f.error().what());
         m.frame_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - f0).count());
       }

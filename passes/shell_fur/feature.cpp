@@ -141,7 +141,7 @@ class ShellFurFeature final : public FeaturePass {
     }
     const float diagonal = glm::length(mesh.bounds.empty() ? scene::compute_bounds(mesh.positions).size() : mesh.bounds.size());
     ShellFurDraw draw{.mesh = gpu_mesh, .model = object.transform, .photo = &photo->texture, .layers = table,
-                      .fins = m.fins ? asset.fins.get() : nullptr};
+                      .fins = m.fins ? asset.fins.get() : nullptr, .per_sample_hair = m.per_sample_hair};
     draw.shading = {.thickness = m.thickness_for(diagonal), .tint = m.tint, .lighting = m.lighting,
                     .uv_scale = m.uv_scale, .wrap = m.wrap, .comb = m.comb, .lift_degrees = m.lift_degrees,
                     .specular = m.specular, .shininess = m.shininess, .fin_threshold = m.fin_threshold};
@@ -172,8 +172,13 @@ const FeatureDescriptor& shell_fur_feature() {
                        "shells N: the height field's depth resolution"),
           boolean_knob("fins", "silhouette fins (Lengyel): one quad per edge near the silhouette"),
           number_knob("fin_threshold", 0, 1, {0.1, 0.35, 0.7}, "|N.V| below which an edge grows a fin"),
+          choice_knob("msaa_hair", {"coverage", "per_sample"},
+                      "under MSAA: alpha to coverage, or each sample tests its own texel (the hair supersampled, "
+                      "shaded per sample; where the adapter can)"),
       },
-      .preset_values = [](Quality q) -> nlohmann::json { return {{"layers", fur_layers_for(q)}}; },
+      .preset_values = [](Quality q) -> nlohmann::json {
+        return {{"layers", fur_layers_for(q)}, {"msaa_hair", q >= Quality::High ? "per_sample" : "coverage"}};
+      },
       // As N grows the strand shells converge to the continuous height field the photo
       // describes (the gap between shells, h_b / N, falls below a pixel); fins patch the gaps
       // of few shells at grazing angles, so the limit has none.

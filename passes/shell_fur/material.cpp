@@ -83,6 +83,8 @@ Result<FurMaterial> parse_fur_material(const scene::Material& material, Quality 
     m.shininess = float(r.number("shininess", m.shininess, {.min = 1.0, .max = 10000.0}));
     m.fins = r.boolean("fins", m.fins);
     m.fin_threshold = float(read_number_knob(r, *find_knob(feature.knobs, "fin_threshold"), m.fin_threshold));
+    m.per_sample_hair = read_choice_knob(r, *find_knob(feature.knobs, "msaa_hair"),
+                                         quality >= Quality::High ? "per_sample" : "coverage") == "per_sample";
   }));
   return m;
 }

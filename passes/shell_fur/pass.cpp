@@ -7,6 +7,7 @@ module;
 #include <expected>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -107,6 +108,12 @@ struct ShellFurPass::State {
   // Shells, fins and the naive shells turn alpha into coverage under MSAA (fur_fragment.glsl).
   frame::PipelineSamples shells, fins, naive, skin_depth;
   gpu::Sampler mirror, repeat, shadow;
+  // The same three testing the hair per sample under MSAA (ShellFurDraw::per_sample_hair),
+  // where the adapter shades per sample.
+  struct PerSample {
+    frame::PipelineSamples shells, fins, naive;
+  };
+  std::optional<PerSample> per_sample;
 };
 
 Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
@@ -152,18 +159,38 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
                           std::move(*fin_vs), std::move(*fin_fs), true));
   WEFT_TRY(auto naive, frame::create_lit_mesh_pipelines(device, "shell_fur.naive", layout, std::move(naive_vs),
                                                         std::move(*naive_fs), frame::vertex_layout(), true));
-  // Under MSAA each sample tests its own texel (supersampling the hair) where the adapter can
-  // shade per sample; elsewhere alpha-to-coverage ramps the band's edges (fur_fragment.glsl).
+  // Under MSAA a draw may test each sample's own texel (supersampling the hair) where the
+  // adapter can shade per sample: pipelines of their own, whose multisampled variants run
+  // the *_per_sample.frag shaders (their 1-sample ones are the plain shaders).
+  std::optional<State::PerSample> per_sample;
   if (device.adapter_info().features.sample_rate_shading) {
-    auto shell_per_sample = module("shell_fur/shell_per_sample.frag", gpu::ShaderStage::Fragment, shaders::shell_per_sample_frag());
-    auto fin_per_sample = module("shell_fur/fin_per_sample.frag", gpu::ShaderStage::Fragment, shaders::fin_per_sample_frag());
-    auto naive_per_sample =
-        module("shell_fur/shell_naive_per_sample.frag", gpu::ShaderStage::Fragment, shaders::shell_naive_per_sample_frag());
-    for (auto* m : {&shell_per_sample, &fin_per_sample, &naive_per_sample})
+    auto frag = [&](const char* label, std::span<const std::uint32_t> spirv) {
+      return module(label, gpu::ShaderStage::Fragment, spirv);
+    };
+    auto sv = vertex(), nv = vertex();
+    auto fv = module("shell_fur/fin.vert", gpu::ShaderStage::Vertex, shaders::fin_vert());
+    auto s1 = frag("shell_fur/shell.frag", shaders::shell_frag()), f1 = frag("shell_fur/fin.frag", shaders::fin_frag()),
+         n1 = frag("shell_fur/shell_naive.frag", shaders::shell_naive_frag());
+    auto sn = frag("shell_fur/shell_per_sample.frag", shaders::shell_per_sample_frag()),
+         fn = frag("shell_fur/fin_per_sample.frag", shaders::fin_per_sample_frag()),
+         nn = frag("shell_fur/shell_naive_per_sample.frag", shaders::shell_naive_per_sample_frag());
+    for (auto* m : {&sv, &nv, &fv, &s1, &f1, &n1, &sn, &fn, &nn})
       if (!*m) return std::unexpected(m->error());
-    shells.set_multisample_fragment(std::move(*shell_per_sample));
-    fins.set_multisample_fragment(std::move(*fin_per_sample));
-    naive.set_multisample_fragment(std::move(*naive_per_sample));
+    WEFT_TRY(auto ps_shells, frame::create_lit_mesh_pipelines(device, "shell_fur.shells.per_sample", layout, std::move(*sv),
+                                                              std::move(*s1), frame::vertex_layout(), true));
+    WEFT_TRY(auto ps_fins, frame::PipelineSamples::create(device, layout,
+                                                          {.label = "shell_fur.fins.per_sample",
+                                                           .layout = layout.get(),
+                                                           .cull_mode = gpu::CullMode::None,
+                                                           .color_targets = {{frame::scene_color_format}},
+                                                           .depth_stencil = gpu::DepthStencilState{.format = frame::scene_depth_format}},
+                                                          std::move(*fv), std::move(*f1), true));
+    WEFT_TRY(auto ps_naive, frame::create_lit_mesh_pipelines(device, "shell_fur.naive.per_sample", layout, std::move(*nv),
+                                                             std::move(*n1), frame::vertex_layout(), true));
+    ps_shells.set_multisample_fragment(std::move(*sn));
+    ps_fins.set_multisample_fragment(std::move(*fn));
+    ps_naive.set_multisample_fragment(std::move(*nn));
+    per_sample.emplace(State::PerSample{std::move(ps_shells), std::move(ps_fins), std::move(ps_naive)});
   }
   // The skin's depth pre-pass: the skin (instance N of shell.vert) pushed back by a few depth
   // steps, colour untouched (adding zero). Any bias keeps the image: it only lets through
@@ -186,7 +213,7 @@ Result<ShellFurPass> ShellFurPass::create(gpu::Device& device) {
   ShellFurPass pass;
   pass.state_ = std::make_shared<State>(State{std::move(*bind_layout), layout, std::move(shells),
                                               std::move(fins), std::move(naive), std::move(skin_depth), std::move(*mirror),
-                                              std::move(*repeat), std::move(*shadow)});
+                                              std::move(*repeat), std::move(*shadow), std::move(per_sample)});
   return pass;
 }
 
@@ -242,13 +269,15 @@ Result<void> ShellFurPass::add(RenderGraph& graph, std::span<const ShellFurDraw>
       }
       return *p;
     };
-    const gpu::RenderPipeline* shells = pick(state->shells);
-    const gpu::RenderPipeline* fins = pick(state->fins);
-    const gpu::RenderPipeline* naive = pick(state->naive);
     const gpu::RenderPipeline* skin_depth = pick(state->skin_depth);
-    if (!shells || !fins || !naive || !skin_depth) return;
+    if (!skin_depth) return;
     gpu::RenderPassEncoder& pass = scene.pass;
     for (const ShellFurDraw& draw : draws) {
+      const bool per_sample = draw.per_sample_hair && scene.samples > 1 && state->per_sample;
+      const gpu::RenderPipeline* shells = pick(per_sample ? state->per_sample->shells : state->shells);
+      const gpu::RenderPipeline* fins = pick(per_sample ? state->per_sample->fins : state->fins);
+      const gpu::RenderPipeline* naive = pick(per_sample ? state->per_sample->naive : state->naive);
+      if (!shells || !fins || !naive) return;
       const std::uint32_t layers = draw.layers->table.layers;
       FurPush push = push_constants(draw);
       push.specular.w = scene.samples > 1 ? 1.0f : 0.0f;  // alpha to coverage (fur_fragment.glsl)

@@ -208,6 +208,7 @@ struct FurMaterial {
   float shininess = 50.0f;
   bool fins = true;
   float fin_threshold = 0.35f;        // |N.V| below which an edge grows a fin
+  bool per_sample_hair = false;       // "msaa_hair": "per_sample" (default from high quality up) or "coverage"
   // The thickness for a mesh whose bounding-box diagonal is `diagonal`.
   [[nodiscard]] float thickness_for(float diagonal) const;
 };
@@ -276,6 +277,10 @@ struct ShellFurDraw {
   const FurFins* fins = nullptr;            // null: no fins
   FurShading shading;
   FurMethod method = FurMethod::SinglePhoto;
+  // Under MSAA, test the hair per sample (each sample its own texel: the hair supersampled,
+  // the fur's shading run per sample) where the adapter shades per sample; false: turn alpha
+  // into coverage (cheaper, coarser). No effect on a single-sample frame.
+  bool per_sample_hair = false;
 };
 
 class ShellFurPass {

@@ -18,7 +18,7 @@ def test_registry_lists_the_builtin_features_with_their_knob_tables():
     assert fur["name"] == "shell_fur" and "fur" in fur["aliases"]
     layers = next(k for k in weft.knobs("shell_fur") if k["name"] == "layers")
     assert layers["kind"] == "integer" and layers["min"] == 1 and layers["max"] == 256
-    assert weft.presets("shell_fur")["medium"] == {"layers": 15}
+    assert weft.presets("shell_fur")["medium"] == {"layers": 15, "msaa_hair": "coverage"}
     assert weft.reference("shell_fur")["layers"] == 256
     assert "tonemap" in [t["name"] for t in weft.pass_types()]
 

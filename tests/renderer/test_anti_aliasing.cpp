@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -229,3 +230,49 @@ TEST_CASE("MSAA at the adapter's largest count weft allows renders; a count the 
   }
   weft::test::expect_no_validation_messages();
 }
+
+TEST_CASE("MSAA on fur: testing the hair per sample comes nearer the supersampled fur than alpha to coverage") {
+  const char* source = std::getenv("WEFT_SOURCE_DIR");
+  REQUIRE(source);
+  auto loaded = scene::load_scene(std::filesystem::path(source) / "examples/fur/scenes/fur_spot.json");
+  REQUIRE_MESSAGE(loaded, (loaded ? "" : loaded.error().message));
+  if (!weft::test::gpu().adapter.info().features.sample_rate_shading) {
+    MESSAGE("the adapter cannot shade per sample: only coverage is there to test");
+    return;
+  }
+  auto with_hair = [&](const char* mode) {
+    scene::Scene s = *loaded;
+    for (auto& m : s.materials)
+      if (m.type == "shell_fur") m.params["msaa_hair"] = mode;
+    return s;
+  };
+  const std::uint32_t w = 96, h = 72, scale = 4;
+  const auto plain = frame_with("{}", {}), msaa = frame_with(R"({"msaa": 4})", {});
+  const auto reference = box_filtered(render(*loaded, plain, w * scale, h * scale), scale);
+  const auto none = render(*loaded, plain, w, h);
+  const auto coverage = render(with_hair("coverage"), msaa, w, h);
+  const auto per_sample = render(with_hair("per_sample"), msaa, w, h);
+  // RMSE as light over the pixels where the reference is not the frame without AA: the fur's
+  // fringe and hair, where aliasing is.
+  auto error = [&](const image::Image8& im) {
+    double sum = 0;
+    int n = 0;
+    for (std::uint32_t y = 0; y < h; ++y)
+      for (std::uint32_t x = 0; x < w; ++x) {
+        const double r = reference[std::size_t{y} * w + x];
+        if (std::abs(light(none, x, y) - r) < 0.02) continue;
+        const double d = light(im, x, y) - r;
+        sum += d * d;
+        ++n;
+      }
+    REQUIRE(n > 100);
+    return std::sqrt(sum / n);
+  };
+  const double e_none = error(none), e_coverage = error(coverage), e_sample = error(per_sample);
+  MESSAGE("fur RMSE (light) against 16 samples: none " << e_none << ", MSAA coverage " << e_coverage << ", per sample "
+                                                       << e_sample);
+  CHECK(e_coverage < e_none);
+  CHECK(e_sample < 0.9 * e_coverage);
+  weft::test::expect_no_validation_messages();
+}
+

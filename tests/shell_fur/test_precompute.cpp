@@ -419,11 +419,16 @@ TEST_CASE("fur material: fields, defaults, layers by quality, all errors at thei
   CHECK(fur_layers_for(Quality::Low) == 8);
   CHECK(fur_layers_for(Quality::Medium) == 15);
   CHECK(fur_layers_for(Quality::Reference) == 64);
+  // MSAA's hair test by quality: coverage up to medium, per sample from high.
+  CHECK(defaults->per_sample_hair);
+  auto medium = parse_fur_material(m, Quality::Medium);
+  REQUIRE(medium);
+  CHECK_FALSE(medium->per_sample_hair);
 
   m.params = nlohmann::json::parse(R"({"photo": ")" + photo.filename().string() + R"(", "layers": 15,
     "spacing": 0.002, "tint": [1, 0.9, 0.8], "layout": "band", "lighting": "lambert", "percentiles": [0.05, 0.95],
     "uv_scale": [2, 3], "wrap": "repeat", "uv_mapping": "spherical", "comb": [0, 1], "lift_degrees": 30,
-    "specular": 0.2, "shininess": 60, "fins": false, "fin_threshold": 0.2})");
+    "specular": 0.2, "shininess": 60, "fins": false, "fin_threshold": 0.2, "msaa_hair": "coverage"})");
   auto full = parse_fur_material(m, Quality::High);
   REQUIRE_MESSAGE(full, (full ? "" : full.error().what()));
   CHECK(full->layers == 15);
@@ -438,15 +443,16 @@ TEST_CASE("fur material: fields, defaults, layers by quality, all errors at thei
   REQUIRE(full->comb);
   CHECK(*full->comb == vec2(0, 1));
   CHECK(!full->fins);
+  CHECK_FALSE(full->per_sample_hair);  // asked for, whatever the quality
 
   m.params = nlohmann::json::parse(R"({"photo": "missing.jpg", "layers": 300, "thickness": 0.1, "spacing": 0.01,
-    "layout": "wavy", "percentiles": [0.9, 0.1], "comb": [0, 0], "furriness": 1})");
+    "layout": "wavy", "percentiles": [0.9, 0.1], "comb": [0, 0], "furriness": 1, "msaa_hair": "sometimes"})");
   auto bad = parse_fur_material(m);
   REQUIRE(!bad);
   const std::string& msg = bad.error().message;
   for (const char* field : {"$.materials.fur.photo", "$.materials.fur.layers", "$.materials.fur.spacing",
                             "$.materials.fur.layout", "$.materials.fur.percentiles", "$.materials.fur.comb",
-                            "$.materials.fur.furriness"})
+                            "$.materials.fur.furriness", "$.materials.fur.msaa_hair"})
     CHECK_MESSAGE(msg.find(field) != std::string::npos, field << " not in:\n" << msg);
   m.params = nlohmann::json::object();
   auto no_photo = parse_fur_material(m);
