@@ -311,6 +311,25 @@ struct FullscreenPass {
 Result<TextureHandle> add_fullscreen_pass(RenderGraph& graph, FullscreenPass pass, const FullscreenPipeline& pipeline,
                                           const gpu::Sampler& sampler, std::shared_ptr<const void> owner);
 
+// A full-screen effect on the frame's colour in whichever format it comes (the tone-mapped
+// rgba8unorm or the linear rgba16float): a FullscreenPipeline per format and the sampler its
+// inputs are read through, made once. The outline and FXAA pass types are this.
+class ColorEffect {
+ public:
+  static Result<ColorEffect> create(gpu::Device& device, std::string label, std::span<const std::uint32_t> fragment_spirv,
+                                    std::uint32_t textures, bool uniforms, std::uint32_t push_size,
+                                    gpu::SamplerDescriptor sampler);
+  // The effect drawn by pass `name` from `inputs` (inputs[0] the colour, whose format the
+  // result takes) into `target`, or into a new texture when it is invalid. An Unsupported
+  // error naming the pass when the colour is in neither format.
+  Result<TextureHandle> add(RenderGraph& graph, std::string_view name, std::vector<TextureHandle> inputs,
+                            TextureHandle target, std::span<const std::byte> push) const;
+
+ private:
+  struct State;
+  std::shared_ptr<const State> state_;
+};
+
 // Orthographic light matrix enclosing the box [lo, hi] seen along `towards_light` (the key
 // light's shadow map; Vulkan depth 0..1).
 mat4 fit_light_view_projection(vec3 towards_light, vec3 lo, vec3 hi);

@@ -3,7 +3,9 @@ module;
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <memory>
+#include <optional>
 #include <expected>
 #include <span>
 #include <string>
@@ -85,6 +87,41 @@ Result<TextureHandle> add_fullscreen_pass(RenderGraph& graph, FullscreenPass p, 
                         &res.buffer(d.uniforms), push);
       });
   return data.target;
+}
+
+struct ColorEffect::State {
+  std::string label;
+  std::map<gpu::Format, FullscreenPipeline> pipelines;  // by colour format
+  gpu::Sampler sampler;
+};
+
+Result<ColorEffect> ColorEffect::create(gpu::Device& device, std::string label, std::span<const std::uint32_t> fragment_spirv,
+                                        std::uint32_t textures, bool uniforms, std::uint32_t push_size,
+                                        gpu::SamplerDescriptor sampler) {
+  std::map<gpu::Format, FullscreenPipeline> pipelines;
+  for (gpu::Format f : {gpu::Format::RGBA8Unorm, scene_color_format}) {
+    WEFT_TRY(auto p, create_fullscreen_pipeline(device, label, fragment_spirv, textures, uniforms, push_size, f));
+    pipelines.emplace(f, std::move(p));
+  }
+  if (sampler.label.empty()) sampler.label = label;
+  WEFT_TRY(auto made_sampler, device.create_sampler(sampler));
+  ColorEffect effect;
+  effect.state_ = std::make_shared<const State>(State{std::move(label), std::move(pipelines), std::move(made_sampler)});
+  return effect;
+}
+
+Result<TextureHandle> ColorEffect::add(RenderGraph& graph, std::string_view name, std::vector<TextureHandle> inputs,
+                                       TextureHandle target, std::span<const std::byte> push) const {
+  const auto desc = inputs.empty() ? std::nullopt : graph.texture_desc(inputs.front());
+  if (!desc || !state_->pipelines.contains(desc->format))
+    return fail(ErrorKind::Unsupported, "pass '{}': input 'color' must be rgba8unorm or rgba16float", name);
+  return add_fullscreen_pass(graph,
+                             {.name = std::string(name),
+                              .inputs = std::move(inputs),
+                              .target = target,
+                              .format = desc->format,
+                              .push = {push.begin(), push.end()}},
+                             state_->pipelines.at(desc->format), state_->sampler, state_);
 }
 
 }  // namespace weft::frame

@@ -2,7 +2,7 @@
 module;
 #include <cstdint>
 #include <expected>
-#include <map>
+#include <optional>
 #include <memory>
 #include <span>
 #include <string>
@@ -24,47 +24,28 @@ struct Push {
   float subpixel;
   std::int32_t steps;
 };
-struct FxaaGpu {
-  std::map<gpu::Format, frame::FullscreenPipeline> pipelines;  // by colour format
-  gpu::Sampler sampler;  // bilinear, clamped: the blend across an edge is one filtered tap
-};
-constexpr gpu::Format color_formats[] = {gpu::Format::RGBA8Unorm, frame::scene_color_format};
-
 class FxaaFramePass final : public pipeline::FramePass {
  public:
   explicit FxaaFramePass(Push push) : push_(push) {}
   Result<void> prepare(gpu::Device& device, const pipeline::PassFrame&) override {
-    if (gpu_) return {};
-    std::map<gpu::Format, frame::FullscreenPipeline> pipelines;
-    for (gpu::Format f : color_formats) {
-      WEFT_TRY(auto p, frame::create_fullscreen_pipeline(device, "fxaa", shaders::fxaa_frag(), 1, false, sizeof(Push), f));
-      pipelines.emplace(f, std::move(p));
-    }
-    WEFT_TRY(auto sampler, device.create_sampler({.label = "fxaa", .max_lod = 0}));
-    gpu_ = std::make_shared<FxaaGpu>(FxaaGpu{std::move(pipelines), std::move(sampler)});
+    if (effect_) return {};
+    // Bilinear, clamped: the blend across an edge is one filtered tap.
+    WEFT_TRY(auto effect, frame::ColorEffect::create(device, "fxaa", shaders::fxaa_frag(), 1, false, sizeof(Push),
+                                                     {.max_lod = 0}));
+    effect_.emplace(std::move(effect));
     return {};
   }
   Result<void> add(RenderGraph& graph, const pipeline::PassFrame&, pipeline::PassSlots& slots) override {
-    if (!gpu_) return fail(ErrorKind::Internal, "pass '{}': add() before prepare()", slots.pass_name());
-    const TextureHandle color = slots.input("color");
-    const auto desc = graph.texture_desc(color);
-    if (!desc || !gpu_->pipelines.contains(desc->format))
-      return fail(ErrorKind::Unsupported, "pass '{}': input 'color' must be rgba8unorm or rgba16float", slots.pass_name());
-    const auto push = std::as_bytes(std::span(&push_, 1));
-    WEFT_TRY(const TextureHandle out, frame::add_fullscreen_pass(graph,
-                                                                 {.name = std::string(slots.pass_name()),
-                                                                  .inputs = {color},
-                                                                  .target = slots.target("color"),
-                                                                  .format = desc->format,
-                                                                  .push = {push.begin(), push.end()}},
-                                                                 gpu_->pipelines.at(desc->format), gpu_->sampler, gpu_));
+    if (!effect_) return fail(ErrorKind::Internal, "pass '{}': add() before prepare()", slots.pass_name());
+    WEFT_TRY(const TextureHandle out, effect_->add(graph, slots.pass_name(), {slots.input("color")}, slots.target("color"),
+                                                   std::as_bytes(std::span(&push_, 1))));
     slots.set_output("color", out);
     return {};
   }
 
  private:
   Push push_;
-  std::shared_ptr<FxaaGpu> gpu_;
+  std::optional<frame::ColorEffect> effect_;
 };
 
 Result<std::unique_ptr<pipeline::FramePass>> create(const pipeline::PassOptions& options) {

@@ -1,7 +1,7 @@
 module;
 #include <cstdint>
 #include <expected>
-#include <map>
+#include <optional>
 #include <memory>
 #include <span>
 #include <string>
@@ -22,48 +22,29 @@ struct Push {
   std::int32_t thickness;
   float brightness;
 };
-struct OutlineGpu {
-  std::map<gpu::Format, frame::FullscreenPipeline> pipelines;  // by colour format
-  gpu::Sampler sampler;
-};
-constexpr gpu::Format color_formats[] = {gpu::Format::RGBA8Unorm, frame::scene_color_format};
-
 class OutlineFramePass final : public pipeline::FramePass {
  public:
   explicit OutlineFramePass(Push push) : push_(push) {}
   Result<void> prepare(gpu::Device& device, const pipeline::PassFrame&) override {
-    if (gpu_) return {};
-    std::map<gpu::Format, frame::FullscreenPipeline> pipelines;
-    for (gpu::Format f : color_formats) {
-      WEFT_TRY(auto p, frame::create_fullscreen_pipeline(device, "outline", shaders::outline_frag(), 2, true, sizeof(Push), f));
-      pipelines.emplace(f, std::move(p));
-    }
-    WEFT_TRY(auto sampler, device.create_sampler({.label = "outline", .mag_filter = gpu::FilterMode::Nearest,
-                                                  .min_filter = gpu::FilterMode::Nearest, .max_lod = 0}));
-    gpu_ = std::make_shared<OutlineGpu>(OutlineGpu{std::move(pipelines), std::move(sampler)});
+    if (effect_) return {};
+    WEFT_TRY(auto effect, frame::ColorEffect::create(device, "outline", shaders::outline_frag(), 2, true, sizeof(Push),
+                                                     {.mag_filter = gpu::FilterMode::Nearest,
+                                                      .min_filter = gpu::FilterMode::Nearest, .max_lod = 0}));
+    effect_.emplace(std::move(effect));
     return {};
   }
   Result<void> add(RenderGraph& graph, const pipeline::PassFrame&, pipeline::PassSlots& slots) override {
-    if (!gpu_) return fail(ErrorKind::Internal, "pass '{}': add() before prepare()", slots.pass_name());
-    const TextureHandle color = slots.input("color"), depth = slots.input("depth");
-    const auto desc = graph.texture_desc(color);
-    if (!desc || !gpu_->pipelines.contains(desc->format))
-      return fail(ErrorKind::Unsupported, "pass '{}': input 'color' must be rgba8unorm or rgba16float", slots.pass_name());
-    const auto push = std::as_bytes(std::span(&push_, 1));
-    WEFT_TRY(const TextureHandle out, frame::add_fullscreen_pass(graph,
-                                                                 {.name = std::string(slots.pass_name()),
-                                                                  .inputs = {color, depth},
-                                                                  .target = slots.target("color"),
-                                                                  .format = desc->format,
-                                                                  .push = {push.begin(), push.end()}},
-                                                                 gpu_->pipelines.at(desc->format), gpu_->sampler, gpu_));
+    if (!effect_) return fail(ErrorKind::Internal, "pass '{}': add() before prepare()", slots.pass_name());
+    WEFT_TRY(const TextureHandle out,
+             effect_->add(graph, slots.pass_name(), {slots.input("color"), slots.input("depth")}, slots.target("color"),
+                          std::as_bytes(std::span(&push_, 1))));
     slots.set_output("color", out);
     return {};
   }
 
  private:
   Push push_;
-  std::shared_ptr<OutlineGpu> gpu_;
+  std::optional<frame::ColorEffect> effect_;
 };
 
 Result<std::unique_ptr<pipeline::FramePass>> create(const pipeline::PassOptions& options) {
