@@ -13,7 +13,12 @@
 //
 //   build/bin/weft-bench-aa [--scene examples/scenes/showcase.json] [--size 480x270]
 //                           [--reference-scale 4] [--time-size 1280x720] [--runs 5]
-//                           [--accumulate 4,16] [--edge-threshold 0.06] [--out DIR] [--no-timing]
+//                           [--accumulate 4,16] [--edge-threshold 0.06] [--move-frames 24]
+//                           [--move-step 0.004] [--out DIR] [--no-timing]
+//
+// A second table follows the camera sliding right --move-step scene units a frame for
+// --move-frames frames: none and FXAA at the last frame, TAA over the whole path, each against
+// the supersampled reference at the last frame.
 //
 // --out DIR writes each option's image, its difference to the reference (x4) and side-by-side
 // crops of the fur, the cloth and the teapot (reference | options..., 3x nearest) for the docs.
@@ -33,6 +38,7 @@
 #include <system_error>
 #include <utility>
 #include <vector>
+#include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
 #include "weft/try.h"
 import weft.core;
@@ -60,11 +66,14 @@ struct Options {
   double edge_threshold = 0.06;
   fs::path out;
   bool timing = true;
+  std::uint32_t move_frames = 24;  // 0: no moving-camera table
+  float move_step = 0.004f;        // scene units a frame
 };
 
 const char* usage =
     "usage: weft-bench-aa [--scene FILE] [--size WxH] [--reference-scale N] [--time-size WxH] [--runs N]\n"
-    "                     [--accumulate N,N,...] [--edge-threshold X] [--out DIR] [--no-timing]\n"
+    "                     [--accumulate N,N,...] [--edge-threshold X] [--move-frames N] [--move-step S]\n"
+    "                     [--out DIR] [--no-timing]\n"
     "Renders the scene with each anti-aliasing option (none, FXAA, MSAA 2x where the adapter has it, MSAA 4x with\n"
     "alpha-to-coverage on fur, accumulation of N jittered frames) and prints RMSE against a supersampled reference\n"
     "(all pixels, edge pixels, the fur's and the cloth's pixels) and frame-time medians with ratios to no AA.\n";
@@ -297,6 +306,17 @@ int main(int argc, char** argv) {
       auto v = value();
       if (!v) return bad("--out needs a folder");
       o.out = std::string(*v);
+    } else if (a == "--move-frames") {
+      auto v = value();
+      auto n = v ? whole(*v, 0, 10000) : std::nullopt;
+      if (!n) return bad("--move-frames needs a whole number in 0..10000 (0: no moving-camera table)");
+      o.move_frames = *n;
+    } else if (a == "--move-step") {
+      auto v = value();
+      double t = 0.0;
+      if (!v || std::from_chars(v->data(), v->data() + v->size(), t).ec != std::errc() || !(t > 0.0 && t < 10.0))
+        return bad("--move-step needs a number of scene units in (0, 10)");
+      o.move_step = float(t);
     } else if (a == "--no-timing") {
       o.timing = false;
     } else {
@@ -328,7 +348,8 @@ int main(int argc, char** argv) {
   auto fxaa = load("fxaa.json");
   auto msaa = load("msaa.json");
   auto accumulate = load("accumulate.json");
-  for (auto* p : {&base, &fxaa, &msaa, &accumulate})
+  auto taa = load("taa.json");
+  for (auto* p : {&base, &fxaa, &msaa, &accumulate, &taa})
     if (!*p) return die(p->error().what());
 
   std::vector<Mode> modes;
@@ -352,6 +373,7 @@ int main(int argc, char** argv) {
     if (!p) return die(p.error().what());
     modes.push_back({.name = weft::format("accumulation, {} frames", n), .pipeline = std::move(*p), .samples = n});
   }
+  modes.push_back({.name = "TAA, 16 frames of a still view", .pipeline = *taa, .samples = 16});
   for (auto& m : modes) {
     auto r = renderer::Renderer::create(session->device);
     if (!r) return die(r.error().what());
@@ -459,6 +481,52 @@ int main(int argc, char** argv) {
       save("crop_" + g.name + "_diff_x4.png", strip(diff_strip, b, 3));
     }
     std::printf("images in %s (crops: reference, then the options in the table's order)\n\n", o.out.string().c_str());
+  }
+
+  // ---- a moving camera: the options that work frame by frame, at the path's last frame ----
+  if (o.move_frames > 0) {
+    const vec3 right = glm::normalize(glm::cross(scene.camera.target - scene.camera.position, scene.camera.up));
+    auto at = [&](std::uint32_t frame) {
+      scene::Scene moved = scene;
+      const vec3 offset = right * (o.move_step * float(frame));
+      moved.camera.position += offset;
+      moved.camera.target += offset;
+      return moved;
+    };
+    const scene::Scene last = at(o.move_frames - 1);
+    auto hi_last = render(*modes[0].renderer, last, modes[0].pipeline, rw, rh, 1);
+    if (!hi_last) return die(hi_last.error().what());
+    const image::Image8 reference_last = box_downsample(*hi_last, o.scale);
+    const std::vector<bool> edges_last = edge_mask(*hi_last, o.scale, o.edge_threshold);
+    struct Moving {
+      std::string name;
+      const pipeline::Pipeline* pipeline;
+      bool temporal;
+    };
+    const std::vector<Moving> moving{{"none", &modes[0].pipeline, false}, {"FXAA", &modes[1].pipeline, false},
+                                     {"TAA", &*taa, true}};
+    std::printf("## A moving camera: %u frames sliding %.4f scene units a frame to the right (error at the last)\n\n"
+                "| option | all pixels | edge pixels |\n|:--|--:|--:|\n",
+                o.move_frames, double(o.move_step));
+    double none_all = 0, none_edges = 0;
+    for (const auto& m : moving) {
+      auto r = renderer::Renderer::create(session->device);
+      if (!r) return die(r.error().what());
+      renderer::RenderOptions options{.width = o.width, .height = o.height, .timestamps = false};
+      options.pipeline = m.pipeline;
+      image::Image8 image;
+      for (std::uint32_t f = m.temporal ? 0 : o.move_frames - 1; f < o.move_frames; ++f) {
+        options.sample_index = m.temporal ? f : 0;
+        auto frame = r->render(at(f), options);
+        if (!frame) return die(frame.error().what());
+        image = std::move(frame->image);
+      }
+      const double all = rmse(image, reference_last, {}), e = rmse(image, reference_last, edges_last);
+      if (m.name == "none") none_all = all, none_edges = e;
+      std::printf("| %s | %.4f (%.2fx) | %.4f (%.2fx) |\n", m.name.c_str(), all, all / none_all, e, e / none_edges);
+      if (!o.out.empty()) (void)image::save_png(o.out / ("moving_" + m.name + ".png"), image);
+    }
+    std::printf("\n");
   }
 
   // ---- cost ----

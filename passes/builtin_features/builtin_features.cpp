@@ -12,6 +12,7 @@ import weft.base_pass.bloom;
 import weft.base_pass.outline;
 import weft.base_pass.fxaa;
 import weft.base_pass.accumulate;
+import weft.base_pass.taa;
 import weft.base_pass.debug_view;
 import weft.pass.shell_fur;
 import weft.pass.skin_sss;
@@ -30,7 +31,7 @@ Result<void> register_builtin_features() {
 Result<void> register_builtin_pass_types() {
   for (const pipeline::PassTypeDescriptor* d : {&passes::shadow_map_pass_type(), &passes::scene_color_pass_type(),
                                                 &passes::background_pass_type(), &passes::tonemap_pass_type(),
-                                                &passes::bloom_pass_type(), &passes::outline_pass_type(), &passes::fxaa_pass_type(), &passes::accumulate_pass_type(),
+                                                &passes::bloom_pass_type(), &passes::outline_pass_type(), &passes::fxaa_pass_type(), &passes::accumulate_pass_type(), &passes::taa_pass_type(),
                                                 &passes::debug_view_pass_type()})
     WEFT_TRY_VOID(pipeline::register_pass_type(*d));
   return {};

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <string>
 #include <vector>
+#include <glm/glm.hpp>
 import weft.core;
 import weft.gpu;
 import weft.image;
@@ -276,3 +277,95 @@ TEST_CASE("MSAA on fur: testing the hair per sample comes nearer the supersample
   weft::test::expect_no_validation_messages();
 }
 
+
+TEST_CASE("TAA: a still view converges towards the supersampled one; a moving camera keeps its edges smooth, no ghosts; a resize starts again") {
+  auto s = load(edge_scene);
+  const std::uint32_t size = 64, scale = 4;
+  const auto plain = frame_with("{}", {});
+  auto taa_pipeline = [&](const std::string& options) {
+    return parse(R"({"passes": {"scene": {"type": "scene_color"}, "background": {"type": "background"},
+                  "tonemap": {"type": "tonemap"}, "taa": {"type": "taa", "options": )" + options + R"(}},
+      "connections": ["scene.color -> background.color", "scene.depth -> background.depth",
+                      "background.color -> tonemap.color", "tonemap.color -> taa.color", "scene.depth -> taa.depth"],
+      "outputs": ["taa.color"]})");
+  };
+  // Still: 16 jittered frames.
+  {
+    const auto taa = taa_pipeline("{}");
+    const auto reference = box_filtered(render(s, plain, size * scale, size * scale), scale);
+    const auto none = render(s, plain, size, size);
+    const Errors e_none = errors(none, none, reference);
+    image::Image8 last;
+    for (std::uint32_t i = 0; i < 16; ++i) last = render(s, taa, size, size, i);
+    const Errors e_taa = errors(last, none, reference);
+    MESSAGE("still view, edge RMSE (light): none " << e_none.edges << ", TAA after 16 frames " << e_taa.edges);
+    CHECK(e_taa.edges < 0.6 * e_none.edges);
+    CHECK(e_taa.flat_changed == 0);
+  }
+  // Moving: the camera slides a third of a pixel a frame for 24 frames.
+  {
+    const auto taa = taa_pipeline("{}");
+    image::Image8 last;
+    scene::Scene moving = s;
+    const float step = 0.01f;  // scene units a frame: about 0.3 pixels at this view
+    for (std::uint32_t i = 0; i < 24; ++i) {
+      moving.camera.position = s.camera.position + vec3(step * float(i), 0.0f, 0.0f);
+      moving.camera.target = s.camera.target + vec3(step * float(i), 0.0f, 0.0f);
+      last = render(moving, taa, size, size, i + 1);
+    }
+    const auto reference = box_filtered(render(moving, plain, size * scale, size * scale), scale);
+    const auto none = render(moving, plain, size, size);
+    const Errors e_none = errors(none, none, reference);
+    const Errors e_taa = errors(last, none, reference);
+    MESSAGE("moving camera, edge RMSE (light): none " << e_none.edges << ", TAA " << e_taa.edges);
+    CHECK(e_taa.edges < 0.75 * e_none.edges);
+    CHECK(e_taa.flat_changed == 0);  // no ghost of the square where it was
+  }
+  // A resize: the first frame at the new size is that frame alone.
+  {
+    const auto taa = taa_pipeline("{}");
+    for (std::uint32_t i = 0; i < 4; ++i) (void)render(s, taa, 48, 48, i);
+    const auto resized = render(s, taa, 40, 40, 4);
+    const auto alone = render(s, plain, 40, 40, 4);
+    int worst = 0;
+    for (std::size_t i = 0; i < alone.pixels.size(); ++i) worst = std::max(worst, std::abs(int(resized.pixels[i]) - int(alone.pixels[i])));
+    CHECK(worst <= 1);
+  }
+  weft::test::expect_no_validation_messages();
+}
+
+TEST_CASE("TAA's reprojection: unjittered frames and a whole-pixel camera move bring the history onto the current frame") {
+  auto s = load(edge_scene);
+  const auto taa = parse(R"({"passes": {"scene": {"type": "scene_color"}, "background": {"type": "background"},
+                  "tonemap": {"type": "tonemap"}, "taa": {"type": "taa", "options": {"blend": 0.5, "clamp": false}}},
+      "connections": ["scene.color -> background.color", "scene.depth -> background.depth",
+                      "background.color -> tonemap.color", "tonemap.color -> taa.color", "scene.depth -> taa.depth"],
+      "outputs": ["taa.color"]})");
+  const auto plain = frame_with("{}", {});
+  const float pixel = 2.0f * 3.0f * std::tan(glm::radians(20.0f)) / 64.0f;  // scene units a pixel at the square
+  auto moved_by = [&](int k) {
+    scene::Scene moved = s;
+    moved.camera.position = s.camera.position + vec3(pixel * float(k), 0.0f, 0.0f);
+    moved.camera.target = s.camera.target + vec3(pixel * float(k), 0.0f, 0.0f);
+    return moved;
+  };
+  // The plain frames first: a renderer keeps only the last pipeline's pass instances (and the
+  // TAA pass's history with them).
+  std::vector<image::Image8> current;
+  for (int k = 0; k <= 3; ++k) current.push_back(render(moved_by(k), plain, 64, 64, 0));
+  (void)render(moved_by(0), taa, 64, 64, 0);
+  for (int k = 1; k <= 3; ++k) {
+    const auto out = render(moved_by(k), taa, 64, 64, 0);
+    int worst = 0, x_worst = 0, y_worst = 0;
+    for (std::uint32_t y = 2; y < 62; ++y)
+      for (std::uint32_t x = 2; x < 62; ++x) {
+        const int d = std::abs(weft::test::channel(out, x, y) - weft::test::channel(current[k], x, y));
+        if (d > worst) worst = d, x_worst = int(x), y_worst = int(y);
+      }
+    CAPTURE(k);
+    CAPTURE(x_worst);
+    CAPTURE(y_worst);
+    CHECK(worst <= 2);
+  }
+  weft::test::expect_no_validation_messages();
+}

@@ -311,7 +311,7 @@ TEST_CASE("every option of every built-in pass type at its extremes, read from t
   REQUIRE(standard);
   pipelines.push_back(std::move(*standard));
   // With the default one, these hold every built-in pass type.
-  for (const char* file : {"bloom_outline.json", "debug_depth.json", "fxaa.json", "accumulate.json"}) {
+  for (const char* file : {"bloom_outline.json", "debug_depth.json", "fxaa.json", "accumulate.json", "taa.json"}) {
     auto p = pipeline::load_pipeline(fs::path(source_dir()) / "examples/pipelines" / file);
     REQUIRE_MESSAGE(p, (p ? "" : p.error().what()));
     pipelines.push_back(std::move(*p));

@@ -1,0 +1,158 @@
+// The taa pass type: the history of a moving camera's jittered frames, reprojected through the
+// depth and blended in (taa.frag), kept between frames in two textures (read one, write the
+// other) with the last frame's camera.
+module;
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <expected>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+#include <glm/glm.hpp>
+#include <weft/try.h>
+#include "weft_pass_taa_shaders.h"
+module weft.base_pass.taa;
+import weft.core;
+import weft.gpu;
+import weft.graph;
+import weft.frame;
+import weft.pipeline;
+
+namespace weft::passes {
+namespace {
+
+struct Push {
+  mat4 reprojection;
+  vec2 jitter_uv;
+  float alpha;
+  std::uint32_t flags;
+};
+static_assert(sizeof(Push) == 80);
+constexpr std::uint32_t display_encoded = 1, neighbourhood_clamp = 2;
+constexpr gpu::Format history_format = gpu::Format::RGBA16Float;
+constexpr gpu::Format color_formats[] = {gpu::Format::RGBA8Unorm, frame::scene_color_format};
+
+struct TaaGpu {
+  frame::FullscreenPipeline blend;
+  std::map<gpu::Format, frame::FullscreenPipeline> output;
+  gpu::Sampler sampler;  // bilinear, clamped: the history is read between texels
+};
+
+class TaaFramePass final : public pipeline::FramePass {
+ public:
+  TaaFramePass(float blend, bool clamp) : blend_(blend), clamp_(clamp) {}
+
+  Result<void> prepare(gpu::Device& device, const pipeline::PassFrame&) override {
+    if (gpu_) return {};
+    WEFT_TRY(auto blend, frame::create_fullscreen_pipeline(device, "taa", shaders::taa_frag(), 3, false, sizeof(Push),
+                                                           history_format));
+    std::map<gpu::Format, frame::FullscreenPipeline> output;
+    for (gpu::Format f : color_formats) {
+      WEFT_TRY(auto p, frame::create_fullscreen_pipeline(device, "taa.output", shaders::taa_output_frag(), 1, false,
+                                                         sizeof(Push), f));
+      output.emplace(f, std::move(p));
+    }
+    WEFT_TRY(auto sampler, device.create_sampler({.label = "taa", .max_lod = 0}));
+    gpu_ = std::make_shared<TaaGpu>(TaaGpu{std::move(blend), std::move(output), std::move(sampler)});
+    device_ = &device;
+    return {};
+  }
+
+  Result<void> add(RenderGraph& graph, const pipeline::PassFrame& frame, pipeline::PassSlots& slots) override {
+    const std::string name(slots.pass_name());
+    if (!gpu_) return fail(ErrorKind::Internal, "pass '{}': add() before prepare()", name);
+    const TextureHandle color = slots.input("color"), depth = slots.input("depth");
+    const auto desc = graph.texture_desc(color);
+    if (!desc || !gpu_->output.contains(desc->format))
+      return fail(ErrorKind::Unsupported, "pass '{}': input 'color' must be rgba8unorm or rgba16float", name);
+    const gpu::Extent3D size = desc->size.resolve({frame.width, frame.height, 1});
+    if (!history_[0] || size.width != size_.width || size.height != size_.height) {
+      for (int i = 0; i < 2; ++i) {
+        WEFT_TRY(auto t, device_->create_texture({.label = weft::format("{}.history.{}", name, i),
+                                                  .size = size,
+                                                  .format = history_format,
+                                                  .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::ColorAttachment}));
+        history_[i] = std::move(t);
+      }
+      size_ = size;
+      frames_ = 0;
+    }
+    // The camera without this frame's jitter, now and a frame ago: the reprojection moves a
+    // pixel from where the scene is to where it was.
+    const mat4 projection = frame::jitter_projection(frame.uniforms.projection, -frame.jitter, size.width, size.height);
+    const mat4 view_projection = projection * frame.uniforms.view;
+    const bool has_history = frames_ > 0 && last_view_projection_;
+    Push push{.reprojection = has_history ? *last_view_projection_ * glm::inverse(view_projection) : mat4(1.0f),
+              .jitter_uv = frame.jitter / vec2(float(size.width), float(size.height)),
+              // The first frames average evenly (a still start converges like accumulation),
+              // then each new frame weighs `blend`.
+              .alpha = has_history ? std::max(blend_, 1.0f / float(frames_ + 1)) : 1.0f,
+              .flags = (desc->format == gpu::Format::RGBA8Unorm ? display_encoded : 0u) | (clamp_ ? neighbourhood_clamp : 0u)};
+    const auto bytes = std::as_bytes(std::span(&push, 1));
+    const std::vector<std::byte> push_bytes(bytes.begin(), bytes.end());
+
+    const int read = int(flip_), write = 1 - read;
+    const TextureHandle history = graph.import_texture(name + ".history", &*history_[read],
+                                                       has_history ? gpu::Access::ShaderRead : gpu::Access::Undefined);
+    const TextureHandle next = graph.import_texture(name + ".history_next", &*history_[write], gpu::Access::Undefined);
+    WEFT_TRY(const TextureHandle blended,
+             frame::add_fullscreen_pass(graph, {.name = name, .inputs = {color, depth, history}, .target = next,
+                                                .format = history_format, .push = push_bytes},
+                                        gpu_->blend, gpu_->sampler, gpu_));
+    graph.mark_output(blended, gpu::Access::ShaderRead);
+    WEFT_TRY(const TextureHandle out,
+             frame::add_fullscreen_pass(graph, {.name = name + ".output", .inputs = {blended}, .target = slots.target("color"),
+                                                .format = desc->format, .push = push_bytes},
+                                        gpu_->output.at(desc->format), gpu_->sampler, gpu_));
+    slots.set_output("color", out);
+    flip_ = !flip_;
+    ++frames_;
+    last_view_projection_ = view_projection;
+    return {};
+  }
+
+ private:
+  float blend_;
+  bool clamp_;
+  std::shared_ptr<TaaGpu> gpu_;
+  gpu::Device* device_ = nullptr;
+  std::array<std::optional<gpu::Texture>, 2> history_;
+  gpu::Extent3D size_{0, 0, 1};
+  std::uint32_t frames_ = 0;  // frames in the history
+  std::optional<mat4> last_view_projection_;
+  bool flip_ = false;
+};
+
+Result<std::unique_ptr<pipeline::FramePass>> create(const pipeline::PassOptions& options) {
+  return std::make_unique<TaaFramePass>(float(options.number("blend")), options.boolean("clamp"));
+}
+
+}  // namespace
+
+const pipeline::PassTypeDescriptor& taa_pass_type() {
+  static const pipeline::PassTypeDescriptor d{
+      .name = "taa",
+      .summary = "Temporal anti-aliasing for a moving camera: the jittered frames' history reprojected through the "
+                 "depth to where the camera saw it last frame, clamped to the current 3x3 neighbourhood and blended in.",
+      .doc = "docs/pipelines.md#taa",
+      .inputs = {{.name = "color", .formats = {gpu::Format::RGBA8Unorm, frame::scene_color_format},
+                  .meaning = "the colour (display-encoded colour is blended as light)"},
+                 {.name = "depth", .formats = {frame::scene_depth_format}, .meaning = "the camera's depth (reprojects the history)"}},
+      .outputs = {{.name = "color", .same_as = "color", .meaning = "the colour with its history blended in"}},
+      .options = {pipeline::number_option("blend", 0.02, 1.0, 0.1,
+                                          "the weight of each new frame once the history is full (smaller: smoother, "
+                                          "slower to follow; 1: no history)",
+                                          {0.25, 0.1, 0.05}),
+                  pipeline::boolean_option("clamp", true,
+                                           "clamp the history to the current 3x3 neighbourhood (no ghosting where the "
+                                           "view changed; off: a still view converges further)")},
+      .create = &create,
+  };
+  return d;
+}
+
+}  // namespace weft::passes
