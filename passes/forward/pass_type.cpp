@@ -95,8 +95,8 @@ const pipeline::PassTypeDescriptor& scene_color_pass_type() {
                   pipeline::with_extremes(
                       pipeline::integer_option("msaa", 1, 64, 1,
                                                "samples per pixel of the colour and depth (MSAA; 1 is off): edges "
-                                               "are covered per sample and shaded once per pixel; fur turns its "
-                                               "alpha into coverage",
+                                               "are covered per sample and shaded once per pixel; fur by coverage "
+                                               "or per sample (its msaa_hair knob)",
                                                {1, 4}),
                       std::nullopt, 4.0)},
       .create = &create,
