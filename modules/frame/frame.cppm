@@ -4,6 +4,7 @@
 // helper that draws lit meshes into the scene colour, and the pipeline and shadow sampler
 // that the passes drawing lit meshes all create alike.
 module;
+#include <utility>
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -328,6 +329,26 @@ class ColorEffect {
  private:
   struct State;
   std::shared_ptr<const State> state_;
+};
+
+// The history of a temporal pass (accumulate, taa): two textures kept between frames, last
+// frame's result read from one while this frame's is written into the other, swapped every
+// frame.
+class HistoryTextures {
+ public:
+  // Makes the pair (sampled, colour attachments, `format`) at `size`, or again at a new size:
+  // true when they are new, i.e. hold no history.
+  Result<bool> ensure(gpu::Device& device, std::string_view label, gpu::Extent3D size, gpu::Format format);
+  // This frame's pair in the graph: last frame's result as "<name>.history" (left sampled by
+  // the frame before when `valid`; undefined otherwise) and the texture to write as
+  // "<name>.history_next" (undefined: the draw covers every texel). Mark what is written into
+  // it as an output in ShaderRead state (the next frame reads it from there). Swaps the pair.
+  std::pair<TextureHandle, TextureHandle> import(RenderGraph& graph, std::string_view name, bool valid);
+
+ private:
+  std::array<std::optional<gpu::Texture>, 2> textures_;
+  gpu::Extent3D size_{0, 0, 1};
+  bool flip_ = false;
 };
 
 // Orthographic light matrix enclosing the box [lo, hi] seen along `towards_light` (the key

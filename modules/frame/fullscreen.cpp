@@ -89,6 +89,28 @@ Result<TextureHandle> add_fullscreen_pass(RenderGraph& graph, FullscreenPass p, 
   return data.target;
 }
 
+Result<bool> HistoryTextures::ensure(gpu::Device& device, std::string_view label, gpu::Extent3D size, gpu::Format format) {
+  if (textures_[0] && size.width == size_.width && size.height == size_.height && textures_[0]->format() == format)
+    return false;
+  for (int i = 0; i < 2; ++i) {
+    WEFT_TRY(auto t, device.create_texture({.label = weft::format("{}.history.{}", label, i),
+                                            .size = size,
+                                            .format = format,
+                                            .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::ColorAttachment}));
+    textures_[i] = std::move(t);
+  }
+  size_ = size;
+  return true;
+}
+
+std::pair<TextureHandle, TextureHandle> HistoryTextures::import(RenderGraph& graph, std::string_view name, bool valid) {
+  const int read = int(flip_), write = 1 - read;
+  flip_ = !flip_;
+  return {graph.import_texture(std::string(name) + ".history", &*textures_[read],
+                               valid ? gpu::Access::ShaderRead : gpu::Access::Undefined),
+          graph.import_texture(std::string(name) + ".history_next", &*textures_[write], gpu::Access::Undefined)};
+}
+
 struct ColorEffect::State {
   std::string label;
   std::map<gpu::Format, FullscreenPipeline> pipelines;  // by colour format

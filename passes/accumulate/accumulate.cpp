@@ -70,19 +70,8 @@ class AccumulateFramePass final : public pipeline::FramePass {
     // A new view (sample 0), a sample out of sequence (a frame was skipped or failed), or a
     // new size starts the mean afresh.
     const bool sequential = frame.sample_index > 0 && last_sample_ && frame.sample_index == *last_sample_ + 1;
-    if (!history_[0] || size.width != size_.width || size.height != size_.height) {
-      for (int i = 0; i < 2; ++i) {
-        WEFT_TRY(auto t, device_->create_texture({.label = weft::format("{}.history.{}", name, i),
-                                                  .size = size,
-                                                  .format = history_format,
-                                                  .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::ColorAttachment}));
-        history_[i] = std::move(t);
-      }
-      size_ = size;
-      count_ = 0;
-    } else {
-      count_ = sequential ? count_ + 1 : 0;
-    }
+    WEFT_TRY(const bool fresh, history_.ensure(*device_, name, size, history_format));
+    count_ = fresh || !sequential ? 0 : count_ + 1;
     last_sample_ = frame.sample_index;
 
     const std::uint32_t n = std::min(count_ + 1, frames_);
@@ -90,12 +79,7 @@ class AccumulateFramePass final : public pipeline::FramePass {
     const auto bytes = std::as_bytes(std::span(&push, 1));
     const std::vector<std::byte> push_bytes(bytes.begin(), bytes.end());
 
-    // Last frame's result was left sampled (mark_output below). The texture written is
-    // imported as undefined: the draw covers every texel, so its old contents do not matter.
-    const int read = int(flip_), write = 1 - read;
-    const TextureHandle history = graph.import_texture(name + ".history", &*history_[read],
-                                                       count_ == 0 ? gpu::Access::Undefined : gpu::Access::ShaderRead);
-    const TextureHandle next = graph.import_texture(name + ".history_next", &*history_[write], gpu::Access::Undefined);
+    const auto [history, next] = history_.import(graph, name, count_ > 0);
     WEFT_TRY(const TextureHandle blended,
              frame::add_fullscreen_pass(graph, {.name = name, .inputs = {color, history}, .target = next,
                                                 .format = history_format, .push = push_bytes},
@@ -106,7 +90,6 @@ class AccumulateFramePass final : public pipeline::FramePass {
                                                 .format = desc->format, .push = push_bytes},
                                         gpu_->output.at(desc->format), gpu_->sampler, gpu_));
     slots.set_output("color", out);
-    flip_ = !flip_;
     return {};
   }
 
@@ -114,11 +97,9 @@ class AccumulateFramePass final : public pipeline::FramePass {
   std::uint32_t frames_;
   std::shared_ptr<AccumulateGpu> gpu_;
   gpu::Device* device_ = nullptr;
-  std::array<std::optional<gpu::Texture>, 2> history_;
-  gpu::Extent3D size_{0, 0, 1};
+  frame::HistoryTextures history_;
   std::uint32_t count_ = 0;  // samples in the history before this frame's
   std::optional<std::uint32_t> last_sample_;
-  bool flip_ = false;
 };
 
 Result<std::unique_ptr<pipeline::FramePass>> create(const pipeline::PassOptions& options) {

@@ -70,17 +70,8 @@ class TaaFramePass final : public pipeline::FramePass {
     if (!desc || !gpu_->output.contains(desc->format))
       return fail(ErrorKind::Unsupported, "pass '{}': input 'color' must be rgba8unorm or rgba16float", name);
     const gpu::Extent3D size = desc->size.resolve({frame.width, frame.height, 1});
-    if (!history_[0] || size.width != size_.width || size.height != size_.height) {
-      for (int i = 0; i < 2; ++i) {
-        WEFT_TRY(auto t, device_->create_texture({.label = weft::format("{}.history.{}", name, i),
-                                                  .size = size,
-                                                  .format = history_format,
-                                                  .usage = gpu::TextureUsage::Sampled | gpu::TextureUsage::ColorAttachment}));
-        history_[i] = std::move(t);
-      }
-      size_ = size;
-      frames_ = 0;
-    }
+    WEFT_TRY(const bool fresh, history_.ensure(*device_, name, size, history_format));
+    if (fresh) frames_ = 0;
     // The camera without this frame's jitter, now and a frame ago: the reprojection moves a
     // pixel from where the scene is to where it was.
     const mat4 projection = frame::jitter_projection(frame.uniforms.projection, -frame.jitter, size.width, size.height);
@@ -95,10 +86,7 @@ class TaaFramePass final : public pipeline::FramePass {
     const auto bytes = std::as_bytes(std::span(&push, 1));
     const std::vector<std::byte> push_bytes(bytes.begin(), bytes.end());
 
-    const int read = int(flip_), write = 1 - read;
-    const TextureHandle history = graph.import_texture(name + ".history", &*history_[read],
-                                                       has_history ? gpu::Access::ShaderRead : gpu::Access::Undefined);
-    const TextureHandle next = graph.import_texture(name + ".history_next", &*history_[write], gpu::Access::Undefined);
+    const auto [history, next] = history_.import(graph, name, has_history);
     WEFT_TRY(const TextureHandle blended,
              frame::add_fullscreen_pass(graph, {.name = name, .inputs = {color, depth, history}, .target = next,
                                                 .format = history_format, .push = push_bytes},
@@ -109,7 +97,6 @@ class TaaFramePass final : public pipeline::FramePass {
                                                 .format = desc->format, .push = push_bytes},
                                         gpu_->output.at(desc->format), gpu_->sampler, gpu_));
     slots.set_output("color", out);
-    flip_ = !flip_;
     ++frames_;
     last_view_projection_ = view_projection;
     return {};
@@ -120,11 +107,9 @@ class TaaFramePass final : public pipeline::FramePass {
   bool clamp_;
   std::shared_ptr<TaaGpu> gpu_;
   gpu::Device* device_ = nullptr;
-  std::array<std::optional<gpu::Texture>, 2> history_;
-  gpu::Extent3D size_{0, 0, 1};
+  frame::HistoryTextures history_;
   std::uint32_t frames_ = 0;  // frames in the history
   std::optional<mat4> last_view_projection_;
-  bool flip_ = false;
 };
 
 Result<std::unique_ptr<pipeline::FramePass>> create(const pipeline::PassOptions& options) {
