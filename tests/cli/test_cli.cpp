@@ -63,7 +63,12 @@ TEST_CASE("bad input: missing scene, malformed JSON, unknown field, unwritable o
                         Case{"render " + s + " -o /nonexistent-dir/out.png", "/nonexistent-dir/out.png"},
                         Case{"render " + s + " -o x.png --size 0x5", "--size"},
                         Case{"render " + s + " -o x.png --quality ultra", "ultra"},
-                        Case{"graph " + (dir / "nope.json").string(), "nope.json"}}) {
+                        Case{"graph " + (dir / "nope.json").string(), "nope.json"},
+                        // Jittered samples that nothing averages: refused before rendering.
+                        Case{"render " + s + " -o x.png --accumulate 4", "no pass of type 'accumulate'"},
+                        Case{"render " + s + " -o x.png --accumulate 4 --frames 2", "--accumulate and --frames"},
+                        Case{"render " + s + " -o x.png --accumulate 0", "--accumulate"},
+                        Case{"render " + s + " -o x.png --accumulate many", "--accumulate"}}) {
     const auto r = run_command(cli + " " + c.args);
     CHECK_MESSAGE(r.exit_code != 0, c.args);
     CHECK_MESSAGE(contains(r.output, c.expect), c.args << " -> " << r.output);

@@ -106,6 +106,11 @@ TEST_CASE("a bad script line is an error naming the file, the line and the fault
   CHECK(error_of("budget -5\n") == "session.txt:1: budget must be a positive number of milliseconds");
   CHECK(error_of("budget fast\n") == "session.txt:1: 'budget' expects numbers, got 'fast': budget MILLISECONDS");
   CHECK(error_of("budget\n") == "session.txt:1: 'budget' takes 1 argument(s): budget MILLISECONDS");
+  CHECK(error_of("accumulate 0\n") == "session.txt:1: accumulate needs a whole number of samples within 1..4096 (1: off)");
+  CHECK(error_of("accumulate 2.5\n") == "session.txt:1: accumulate needs a whole number of samples within 1..4096 (1: off)");
+  CHECK(error_of("accumulate 5000\n") == "session.txt:1: accumulate needs a whole number of samples within 1..4096 (1: off)");
+  CHECK(error_of("accumulate nan\n") == "session.txt:1: 'accumulate' expects finite numbers, got 'nan': accumulate SAMPLES");
+  CHECK(error_of("settle now\n") == "session.txt:1: 'settle' takes 0 argument(s): settle");
   CHECK(error_of("knob skin lut.range full\n") ==
         "session.txt:1: knob value 'full' is not JSON (numbers, true/false, or \"quoted\" text)");
 }
