@@ -4,6 +4,7 @@
 // helper that draws lit meshes into the scene colour, and the pipeline and shadow sampler
 // that the passes drawing lit meshes all create alike.
 module;
+#include <map>
 #include <utility>
 #include <array>
 #include <cstdint>
@@ -329,6 +330,20 @@ class ColorEffect {
  private:
   struct State;
   std::shared_ptr<const State> state_;
+};
+
+// A temporal pass's GPU objects (accumulate, taa): `blend` draws this frame into the history
+// (rgba16float; `blend_textures` inputs), `output` per colour format (rgba8unorm, rgba16float)
+// writes the history back in the input's encoding (one texture), `sampler` bilinear and clamped.
+struct TemporalPipelines {
+  FullscreenPipeline blend;
+  std::map<gpu::Format, FullscreenPipeline> output;
+  gpu::Sampler sampler;
+  static Result<std::shared_ptr<const TemporalPipelines>> create(gpu::Device& device, const std::string& label,
+                                                                 std::span<const std::uint32_t> blend_spirv,
+                                                                 std::uint32_t blend_textures,
+                                                                 std::span<const std::uint32_t> output_spirv,
+                                                                 std::uint32_t push_size);
 };
 
 // The history of a temporal pass (accumulate, taa): two textures kept between frames, last

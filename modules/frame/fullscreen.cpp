@@ -89,6 +89,22 @@ Result<TextureHandle> add_fullscreen_pass(RenderGraph& graph, FullscreenPass p, 
   return data.target;
 }
 
+Result<std::shared_ptr<const TemporalPipelines>> TemporalPipelines::create(gpu::Device& device, const std::string& label,
+                                                                           std::span<const std::uint32_t> blend_spirv,
+                                                                           std::uint32_t blend_textures,
+                                                                           std::span<const std::uint32_t> output_spirv,
+                                                                           std::uint32_t push_size) {
+  WEFT_TRY(auto blend, create_fullscreen_pipeline(device, label, blend_spirv, blend_textures, false, push_size,
+                                                  gpu::Format::RGBA16Float));
+  std::map<gpu::Format, FullscreenPipeline> output;
+  for (gpu::Format f : {gpu::Format::RGBA8Unorm, scene_color_format}) {
+    WEFT_TRY(auto p, create_fullscreen_pipeline(device, label + ".output", output_spirv, 1, false, push_size, f));
+    output.emplace(f, std::move(p));
+  }
+  WEFT_TRY(auto sampler, device.create_sampler({.label = label, .max_lod = 0}));
+  return std::make_shared<const TemporalPipelines>(TemporalPipelines{std::move(blend), std::move(output), std::move(sampler)});
+}
+
 Result<bool> HistoryTextures::ensure(gpu::Device& device, std::string_view label, gpu::Extent3D size, gpu::Format format) {
   if (textures_[0] && size.width == size_.width && size.height == size_.height && textures_[0]->format() == format)
     return false;

@@ -30,13 +30,6 @@ struct Push {
 // The history is linear light in half floats whatever the input: 8 bits would round every
 // step of the mean (1/255 is more than a 64th sample contributes to a dark pixel).
 constexpr gpu::Format history_format = gpu::Format::RGBA16Float;
-constexpr gpu::Format color_formats[] = {gpu::Format::RGBA8Unorm, frame::scene_color_format};
-
-struct AccumulateGpu {
-  frame::FullscreenPipeline blend;                               // into the history
-  std::map<gpu::Format, frame::FullscreenPipeline> output;       // by the input's format
-  gpu::Sampler sampler;                                          // unused by texelFetch; bound for the layout
-};
 
 class AccumulateFramePass final : public pipeline::FramePass {
  public:
@@ -44,16 +37,8 @@ class AccumulateFramePass final : public pipeline::FramePass {
 
   Result<void> prepare(gpu::Device& device, const pipeline::PassFrame&) override {
     if (gpu_) return {};
-    WEFT_TRY(auto blend, frame::create_fullscreen_pipeline(device, "accumulate", shaders::accumulate_frag(), 2, false,
-                                                           sizeof(Push), history_format));
-    std::map<gpu::Format, frame::FullscreenPipeline> output;
-    for (gpu::Format f : color_formats) {
-      WEFT_TRY(auto p, frame::create_fullscreen_pipeline(device, "accumulate.output", shaders::accumulate_output_frag(),
-                                                         1, false, sizeof(Push), f));
-      output.emplace(f, std::move(p));
-    }
-    WEFT_TRY(auto sampler, device.create_sampler({.label = "accumulate", .max_lod = 0}));
-    gpu_ = std::make_shared<AccumulateGpu>(AccumulateGpu{std::move(blend), std::move(output), std::move(sampler)});
+    WEFT_TRY(gpu_, frame::TemporalPipelines::create(device, "accumulate", shaders::accumulate_frag(), 2, shaders::accumulate_output_frag(),
+                                                   sizeof(Push)));
     device_ = &device;
     return {};
   }
@@ -95,7 +80,7 @@ class AccumulateFramePass final : public pipeline::FramePass {
 
  private:
   std::uint32_t frames_;
-  std::shared_ptr<AccumulateGpu> gpu_;
+  std::shared_ptr<const frame::TemporalPipelines> gpu_;
   gpu::Device* device_ = nullptr;
   frame::HistoryTextures history_;
   std::uint32_t count_ = 0;  // samples in the history before this frame's

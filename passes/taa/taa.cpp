@@ -34,13 +34,6 @@ struct Push {
 static_assert(sizeof(Push) == 80);
 constexpr std::uint32_t display_encoded = 1, neighbourhood_clamp = 2;
 constexpr gpu::Format history_format = gpu::Format::RGBA16Float;
-constexpr gpu::Format color_formats[] = {gpu::Format::RGBA8Unorm, frame::scene_color_format};
-
-struct TaaGpu {
-  frame::FullscreenPipeline blend;
-  std::map<gpu::Format, frame::FullscreenPipeline> output;
-  gpu::Sampler sampler;  // bilinear, clamped: the history is read between texels
-};
 
 class TaaFramePass final : public pipeline::FramePass {
  public:
@@ -48,16 +41,8 @@ class TaaFramePass final : public pipeline::FramePass {
 
   Result<void> prepare(gpu::Device& device, const pipeline::PassFrame&) override {
     if (gpu_) return {};
-    WEFT_TRY(auto blend, frame::create_fullscreen_pipeline(device, "taa", shaders::taa_frag(), 3, false, sizeof(Push),
-                                                           history_format));
-    std::map<gpu::Format, frame::FullscreenPipeline> output;
-    for (gpu::Format f : color_formats) {
-      WEFT_TRY(auto p, frame::create_fullscreen_pipeline(device, "taa.output", shaders::taa_output_frag(), 1, false,
-                                                         sizeof(Push), f));
-      output.emplace(f, std::move(p));
-    }
-    WEFT_TRY(auto sampler, device.create_sampler({.label = "taa", .max_lod = 0}));
-    gpu_ = std::make_shared<TaaGpu>(TaaGpu{std::move(blend), std::move(output), std::move(sampler)});
+    WEFT_TRY(gpu_, frame::TemporalPipelines::create(device, "taa", shaders::taa_frag(), 3, shaders::taa_output_frag(),
+                                                   sizeof(Push)));
     device_ = &device;
     return {};
   }
@@ -105,7 +90,7 @@ class TaaFramePass final : public pipeline::FramePass {
  private:
   float blend_;
   bool clamp_;
-  std::shared_ptr<TaaGpu> gpu_;
+  std::shared_ptr<const frame::TemporalPipelines> gpu_;
   gpu::Device* device_ = nullptr;
   frame::HistoryTextures history_;
   std::uint32_t frames_ = 0;  // frames in the history
