@@ -3,12 +3,13 @@
 // per-frame CPU overhead of executing through the graph against recording by hand.
 //
 //   build/bin/weft-bench-graph [--runs N] [--sizes 10,100,...] [--shapes chain,dag,dag-long]
-//                              [--builds first,new,changed,unchanged] [--no-device] [--keep-heap]
+//                              [--builds first,default,new,changed,unchanged] [--no-device] [--keep-heap]
 //
 // Prints markdown tables. Times are medians over --runs frames of std::chrono::steady_clock,
 // plus thread-CPU time (steadier on a shared machine) and minor page faults per frame. Each
-// shape and size is timed four ways (see Build): a new RenderGraph per frame, a new one per
-// frame on a GraphMemory, and one graph reset() and rebuilt, changed or unchanged.
+// shape and size is timed five ways (see Build): a new RenderGraph per frame in fresh memory,
+// the same written the plain way (its thread's memory), a new one per frame on a GraphMemory,
+// and one graph reset() and rebuilt, changed or unchanged.
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -68,17 +69,19 @@ long minor_faults() {
   return usage.ru_minflt;
 }
 
-// How a run gets its graph. First: a new RenderGraph, so every array, the arena and the
-// compiled state are allocated. New per frame: a new RenderGraph made with a GraphMemory the
+// How a run gets its graph. First: a new RenderGraph in a new GraphMemory, so every array, the
+// arena and the compiled state are allocated. Default: `RenderGraph graph(name);` every frame,
+// as a user writes it, which takes its thread's memory (GraphMemory::for_this_thread). New per frame: a new RenderGraph made with a GraphMemory the
 // benchmark keeps across runs (an application's frame loop). Reset + rebuild: one RenderGraph,
 // reset() and declared again. New per frame and reset + rebuild start with two untimed runs
 // (a graph alternates between two sets of arrays), so the timed runs reuse their memory; "changed" frames differ from the last one in their
 // very last declaration (a full compile), "unchanged" frames declare the same (plan reused).
-enum class Build { First, NewPerFrame, Changed, Unchanged };
+enum class Build { First, Default, NewPerFrame, Changed, Unchanged };
 
 const char* to_string(Build build) {
   switch (build) {
     case Build::First: return "first build";
+    case Build::Default: return "new graph per frame (default), changed";
     case Build::NewPerFrame: return "new graph per frame (GraphMemory), changed";
     case Build::Changed: return "reset + rebuild, changed";
     case Build::Unchanged: return "reset + rebuild, unchanged (plan reused)";
@@ -98,14 +101,17 @@ Timing time_frames(int runs, Build build, const char* name, Declare&& declare, s
   GraphMemory memory;
   RenderGraph reused(name);
   for (int run = build == Build::First ? 0 : -2; run < runs; ++run) {
-    const bool changed = (build == Build::Changed || build == Build::NewPerFrame) && (run & 1) != 0;
+    const bool changed =
+        (build == Build::Changed || build == Build::NewPerFrame || build == Build::Default) && (run & 1) != 0;
     const long f0 = minor_faults();
     const double c0 = thread_cpu_us();
     const auto t0 = Clock::now();
     Clock::time_point t1, t2;
     {
+      std::optional<GraphMemory> cold;  // destroyed after the graph made in it
       std::optional<RenderGraph> fresh;
-      RenderGraph& graph = build == Build::First         ? fresh.emplace(name)
+      RenderGraph& graph = build == Build::First         ? fresh.emplace(name, cold.emplace())
+                           : build == Build::Default     ? fresh.emplace(name)
                            : build == Build::NewPerFrame ? fresh.emplace(name, memory)
                                                          : (reused.reset(), reused);
       declare(graph, changed);
@@ -478,12 +484,13 @@ void overhead_table(gpu::Device& device, int runs) {
 
 constexpr const char* usage_text =
     "usage: weft-bench-graph [--runs N] [--sizes 10,100,...] [--shapes chain,dag,dag-long]\n"
-    "                        [--builds first,new,changed,unchanged] [--no-device] [--keep-heap]\n"
+    "                        [--builds first,default,new,changed,unchanged] [--no-device] [--keep-heap]\n"
     "  --runs N     frames per row (default 15, at least 7; rows of 10,000+ passes run half)\n"
     "  --sizes      pass counts (default 10,100,1000,5000,10000)\n"
     "  --shapes     chain; dag (reads of recent passes); dag-long (reads of any earlier pass)\n"
-    "  --builds     first: a new RenderGraph per frame; new: a new RenderGraph per frame on a\n"
-    "               GraphMemory; changed / unchanged: reset() and rebuilt, full compile / plan reused\n"
+    "  --builds     first: a new RenderGraph per frame in fresh memory; default: `RenderGraph g(name)`\n"
+    "               per frame (its thread's memory); new: a new RenderGraph per frame on a GraphMemory;\n"
+    "               changed / unchanged: reset() and rebuilt, full compile / plan reused\n"
     "  --no-device  graph tables only (no Vulkan device: no execute overhead or frame loop)\n"
     "  --keep-heap  tell glibc never to give freed memory back to the kernel\n";
 
@@ -509,7 +516,7 @@ int main(int argc, char** argv) {
   bool use_device = true;
   std::vector<int> sizes{10, 100, 1000, 5000, 10000};
   bool keep_heap = false;
-  std::vector<Build> builds{Build::First, Build::NewPerFrame, Build::Changed, Build::Unchanged};
+  std::vector<Build> builds{Build::First, Build::Default, Build::NewPerFrame, Build::Changed, Build::Unchanged};
   std::vector<Shape> shapes{Shape::Chain, Shape::Dag, Shape::DagLong};
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -535,13 +542,14 @@ int main(int argc, char** argv) {
       // e.g. `--builds changed` to count the instructions of one case alone under callgrind
       if (!parse_list(argv[++i], builds, [](const std::string& item, Build& b) {
             if (item == "first") b = Build::First;
+            else if (item == "default") b = Build::Default;
             else if (item == "new") b = Build::NewPerFrame;
             else if (item == "changed") b = Build::Changed;
             else if (item == "unchanged") b = Build::Unchanged;
             else return false;
             return true;
           })) {
-        std::fprintf(stderr, "--builds: a comma-separated list of first, new, changed, unchanged, got '%s'\n", argv[i]);
+        std::fprintf(stderr, "--builds: a comma-separated list of first, default, new, changed, unchanged, got '%s'\n", argv[i]);
         return 2;
       }
     } else if (arg == "--shapes" && has_value) {
@@ -573,8 +581,9 @@ int main(int argc, char** argv) {
               "frame = setup + compile + destroying the compiled graph (and a graph made per frame); thread-CPU "
               "and minor page faults (getrusage, mean per frame) cover the frame.\n\n",
               runs);
-  std::printf("Builds: first = a new RenderGraph per frame; new graph per frame = a new RenderGraph per frame made "
-              "with a GraphMemory kept across frames; reset + rebuild = one RenderGraph, reset() and declared again. "
+  std::printf("Builds: first = a new RenderGraph per frame in a new GraphMemory (nothing kept); default = "
+              "`RenderGraph graph(name)` per frame, as a user writes it (its thread's memory); new graph per frame = "
+              "a new RenderGraph per frame made with a GraphMemory kept across frames; reset + rebuild = one RenderGraph, reset() and declared again. "
               "Changed frames differ from the last in their last declaration (a full compile every frame); unchanged "
               "frames declare the same (compile() reuses the last plan).\n\n");
   std::printf("| graph | build | passes | setup µs | compile µs | setup+compile µs | µs/pass | frame µs | frame "

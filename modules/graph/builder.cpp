@@ -148,10 +148,13 @@ std::string use_names(std::uint16_t uses, ResourceType type) {
   const std::string_view pass_name = g.passes[pass].name;
   add_error(g, GraphErrorKind::ConflictingUsage,
             two_versions ? weft::format("pass '{}': declares {} at two versions ({} and {}); a pass sees one version "
-                                       "of a resource",
+                                       "of a resource: declare every use in this pass with the handle of the "
+                                       "version it should see (the one the last write() returned)",
                                        pass_name, g.describe(resource), g.versions[existing.slot].version, version)
                          : weft::format("pass '{}': uses {} both as {} and as {}; a pass can use a resource one way at "
-                                       "a time",
+                                       "a time: to read what it writes, copy it to a second resource in an earlier "
+                                       "pass (or split the pass in two); one texture per mip or layer where they "
+                                       "are used apart",
                                        pass_name, g.describe(resource), use_names(existing.uses, type),
                                        use_names(use, type)),
             {std::string(pass_name)}, {std::string(g.resources[resource].name)});
@@ -409,11 +412,32 @@ namespace detail {
 // between (its last frame's declarations and the spare set).
 struct KeptGraphs {
   std::shared_ptr<GraphData> last, spare;
+  // A thread's memory (GraphMemory::for_this_thread): its user never sees it, so it keeps no
+  // set a compiled graph still holds (that graph would park its gpu objects in it) and drops
+  // the gpu objects of those it keeps -- a device may be destroyed before the thread ends.
+  bool thread_default = false;
 };
+
+namespace {
+// What a thread's memory keeps of a set the graph gives back: the set, emptied of callbacks
+// and gpu objects, when nothing else holds it; otherwise nothing (it goes with its holder).
+std::shared_ptr<GraphData> keep_for_thread(std::shared_ptr<GraphData> set) {
+  if (!set || set.use_count() != 1) return nullptr;
+  set->release_callbacks();
+  if (set->spare_state) drop_gpu_objects(*set->spare_state);
+  return set;
+}
+}  // namespace
 }  // namespace detail
 
 GraphMemory::GraphMemory() : kept_(std::make_shared<detail::KeptGraphs>()) {}
 GraphMemory::~GraphMemory() = default;
+
+GraphMemory& GraphMemory::for_this_thread() {
+  thread_local GraphMemory memory;
+  memory.kept_->thread_default = true;
+  return memory;
+}
 
 void GraphMemory::release() {
   kept_->last.reset();
@@ -422,11 +446,17 @@ void GraphMemory::release() {
 
 // ---- RenderGraph ---------------------------------------------------------------------------
 
-RenderGraph::RenderGraph(std::string_view name) : data_(std::make_shared<GraphData>(name)) {}
+RenderGraph::RenderGraph(std::string_view name) : RenderGraph(name, GraphMemory::for_this_thread()) {}
 
 RenderGraph::RenderGraph(std::string_view name, GraphMemory& memory) : memory_(memory.kept_) {
   data_ = std::move(memory_->last);
   spare_ = std::move(memory_->spare);
+  if (!data_ && spare_) {  // only the spare set was kept (a thread's memory): no last frame
+    data_ = std::move(spare_);
+    data_->clear();
+    data_->name.assign(name);
+    return;
+  }
   if (!data_) {  // nothing kept (the first graph, or another graph holds the memory)
     data_ = std::make_shared<GraphData>(name);
     return;
@@ -452,6 +482,12 @@ RenderGraph::~RenderGraph() { give_back_memory(); }
 
 void RenderGraph::give_back_memory() {
   if (!memory_ || !data_) return;
+  if (memory_->thread_default) {
+    memory_->last = detail::keep_for_thread(std::move(data_));
+    memory_->spare = detail::keep_for_thread(std::move(spare_));
+    memory_.reset();
+    return;
+  }
   // What the callbacks captured goes with the graph, unless its compiled graph still needs
   // it (then when the next graph reuses these arrays), as after reset().
   if (data_.use_count() == 1) data_->release_callbacks();
@@ -464,8 +500,12 @@ void RenderGraph::reset() {
   // This frame's arrays become the previous ones; the next frame's are the other set, unless
   // a compiled graph still holds that set (use_count() > 1), which then keeps it.
   std::shared_ptr<GraphData> next;
-  if (spare_ && spare_.use_count() == 1) next = std::move(spare_);
-  else next = std::make_shared<GraphData>(data_->name);
+  if (spare_ && spare_.use_count() == 1) {
+    next = std::move(spare_);
+    next->name.assign(data_->name);  // a set a memory kept may come from another graph
+  } else {
+    next = std::make_shared<GraphData>(data_->name);
+  }
   next->clear();
   spare_ = std::move(data_);
   data_ = std::move(next);

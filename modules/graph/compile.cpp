@@ -10,6 +10,7 @@ module;
 #include <cstring>
 #include <expected>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <numeric>
@@ -83,6 +84,8 @@ gpu::TextureUsage usage_for_state(gpu::Access state) {
 struct Edge {
   std::uint32_t to;
   std::uint32_t resource;  // the resource that orders the two passes (named in cycle errors)
+  std::uint32_t version = 0;  // the version `from` reads, for an edge to the pass overwriting it
+  bool overwrite = false;  // `to` writes the next version of what `from` reads (not: `from` produced it)
 };
 
 class Scheduler {
@@ -460,18 +463,19 @@ class Scheduler {
         for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
           const AccessNode& a = g_.accesses[i];
           const VersionNode& v = g_.versions[a.slot];
-          if (v.producer != invalid_index && v.producer != p) emit(v.producer, p, a.resource);
-          if (a.reads && v.next_writer != invalid_index && v.next_writer != p) emit(p, v.next_writer, a.resource);
+          if (v.producer != invalid_index && v.producer != p) emit(v.producer, p, Edge{p, a.resource});
+          if (a.reads && v.next_writer != invalid_index && v.next_writer != p)
+            emit(p, v.next_writer, Edge{v.next_writer, a.resource, v.version, true});
         }
       }
     };
-    for_each_edge([&](std::uint32_t from, std::uint32_t, std::uint32_t) { ++begin[from + 1]; });
+    for_each_edge([&](std::uint32_t from, std::uint32_t, const Edge&) { ++begin[from + 1]; });
     for (std::uint32_t p = 0; p < P; ++p) begin[p + 1] += begin[p];
     std::vector<Edge> edges(begin[P]);
     std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
     std::vector<std::uint32_t> indegree(P, 0);
-    for_each_edge([&](std::uint32_t from, std::uint32_t to, std::uint32_t resource) {
-      edges[fill[from]++] = Edge{to, resource};
+    for_each_edge([&](std::uint32_t from, std::uint32_t to, const Edge& edge) {
+      edges[fill[from]++] = edge;
       ++indegree[to];
     });
 
@@ -585,16 +589,27 @@ class Scheduler {
       passes.push_back(pass_name(p));
     }
     message += weft::format("'{}' through ", g_.passes[cycle.front()].name);
+    // An edge to the pass that overwrites what its source reads is usually a stale handle
+    // (the handle of an older version kept after a later write): said, with the edge.
+    std::string stale;
     for (std::size_t i = 0; i < cycle.size(); ++i) {
       const std::uint32_t from = cycle[i], to = cycle[(i + 1) % cycle.size()];
+      const Edge* chosen = nullptr;
       for (std::uint32_t e = begin[from]; e < begin[from + 1]; ++e) {
         if (edges[e].to != to) continue;
-        std::string name = resource_name(edges[e].resource);
-        if (std::find(resources.begin(), resources.end(), name) == resources.end()) resources.push_back(name);
-        break;
+        if (!chosen || (chosen->overwrite && !edges[e].overwrite)) chosen = &edges[e];
       }
+      if (!chosen) continue;
+      std::string name = resource_name(chosen->resource);
+      if (std::find(resources.begin(), resources.end(), name) == resources.end()) resources.push_back(name);
+      if (chosen->overwrite)
+        stale += weft::format("; '{}' reads version {} of {}, which '{}' overwrites, so it must run first -- if it "
+                              "should see '{}''s result, it holds a stale handle: read the one that write() returned",
+                              g_.passes[from].name, chosen->version, g_.describe(chosen->resource), g_.passes[to].name,
+                              g_.passes[to].name);
     }
     for (std::size_t i = 0; i < resources.size(); ++i) message += weft::format("{}'{}'", i ? ", " : "", resources[i]);
+    message += stale;
     error(GraphErrorKind::Cycle, std::move(message), std::move(passes), std::move(resources));
   }
 
@@ -663,23 +678,89 @@ class Scheduler {
   }
 
   // Only passes whose attachments setup saw declared with different sizes can differ once
-  // the sizes are resolved (culled passes are checked too).
+  // the sizes are resolved (culled passes are checked too). One texture of the wrong size is
+  // usually attached by many passes: their errors collapse into one naming it and them all.
   void check_attachments() {
-    for (std::uint32_t p = 0; p < s_.pass_count; ++p) {
+    std::vector<std::uint32_t> mismatched;
+    for (std::uint32_t p = 0; p < s_.pass_count; ++p)
+      if (g_.passes[p].attachment_sizes_differ && attachments_mismatch(p)) mismatched.push_back(p);
+    if (!mismatched.empty()) report_attachment_sizes(mismatched);
+  }
+
+  [[gnu::cold, gnu::noinline]] void report_attachment_sizes(const std::vector<std::uint32_t>& mismatched) {
+    auto same = [](gpu::Extent3D x, gpu::Extent3D y) { return x.width == y.width && x.height == y.height; };
+    auto attachments = [&](std::uint32_t p) {
+      std::vector<std::uint32_t> out;
       const PassNode& pass = g_.passes[p];
-      if (!pass.attachment_sizes_differ || !attachments_mismatch(p)) continue;
-      std::string list;
-      std::vector<std::string> names;
       for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
         const AccessNode& a = g_.accesses[i];
-        if (!a.texture || !(a.uses & attachment_uses)) continue;
-        list += weft::format("{}texture '{}' is {}", list.empty() ? "" : ", ", g_.resources[a.resource].name,
-                             format_extent(s_.resources[a.resource].extent));
-        names.push_back(resource_name(a.resource));
+        if (a.texture && (a.uses & attachment_uses)) out.push_back(a.resource);
+      }
+      return out;
+    };
+    // How many mismatched passes attach each texture: of two attachments that disagree, the
+    // one many passes share is the odd one (the others agree with their passes' own targets).
+    std::map<std::uint32_t, std::uint32_t> passes_using;
+    for (std::uint32_t p : mismatched)
+      for (std::uint32_t r : attachments(p)) ++passes_using[r];
+    // Per pass, the odd attachment: the one whose size fewest of the pass's attachments have,
+    // among those the most mismatched passes share, the last declared.
+    std::map<std::uint32_t, std::vector<std::uint32_t>> passes_by_odd;
+    std::vector<std::uint32_t> odd_order;
+    for (std::uint32_t p : mismatched) {
+      const std::vector<std::uint32_t> list = attachments(p);
+      std::uint32_t odd = list.back(), best_agreeing = ~0u, best_sharing = 0;
+      for (std::uint32_t r : list) {
+        std::uint32_t agreeing = 0;
+        for (std::uint32_t q : list) agreeing += same(s_.resources[r].extent, s_.resources[q].extent) ? 1 : 0;
+        const std::uint32_t sharing = passes_using[r];
+        if (agreeing < best_agreeing || (agreeing == best_agreeing && sharing >= best_sharing)) {
+          odd = r;
+          best_agreeing = agreeing;
+          best_sharing = sharing;
+        }
+      }
+      if (passes_by_odd[odd].empty()) odd_order.push_back(odd);
+      passes_by_odd[odd].push_back(p);
+    }
+    for (std::uint32_t odd : odd_order) {
+      const std::vector<std::uint32_t>& passes = passes_by_odd[odd];
+      if (passes.size() == 1) {
+        const std::uint32_t p = passes.front();
+        std::string list;
+        std::vector<std::string> names;
+        for (std::uint32_t r : attachments(p)) {
+          list += weft::format("{}texture '{}' is {}", list.empty() ? "" : ", ", g_.resources[r].name,
+                               format_extent(s_.resources[r].extent));
+          names.push_back(resource_name(r));
+        }
+        error(GraphErrorKind::MismatchedAttachmentSizes,
+              weft::format("pass '{}': attachments have different sizes: {}", g_.passes[p].name, list), {pass_name(p)},
+              std::move(names));
+        continue;
+      }
+      std::string pass_list, other_sizes;
+      std::vector<std::string> pass_names, names{resource_name(odd)};
+      std::vector<std::uint32_t> others_seen;
+      for (std::uint32_t p : passes) {
+        pass_list += weft::format("{}'{}'", pass_list.empty() ? "" : ", ", g_.passes[p].name);
+        pass_names.push_back(pass_name(p));
+        for (std::uint32_t r : attachments(p)) {
+          if (r == odd || std::find(others_seen.begin(), others_seen.end(), r) != others_seen.end()) continue;
+          others_seen.push_back(r);
+          names.push_back(resource_name(r));
+          const std::string size = format_extent(s_.resources[r].extent);
+          if (other_sizes.find(size) == std::string::npos)
+            other_sizes += weft::format("{}{}", other_sizes.empty() ? "" : " or ", size);
+        }
       }
       error(GraphErrorKind::MismatchedAttachmentSizes,
-            weft::format("pass '{}': attachments have different sizes: {}", pass.name, list), {pass_name(p)},
-            std::move(names));
+            weft::format("texture '{}' is {}, but the other attachments of the {} passes it is attached to are {}: "
+                         "passes {}; give it their size (or the same relative size), or give those passes a "
+                         "texture of its size",
+                         g_.resources[odd].name, format_extent(s_.resources[odd].extent), passes.size(), other_sizes,
+                         pass_list),
+            std::move(pass_names), std::move(names));
     }
   }
 };
@@ -712,17 +793,136 @@ bool same_options(const detail::CompiledState& state, const CompileOptions& opti
          a.width == b.width && a.height == b.height && a.depth_or_layers == b.depth_or_layers;
 }
 
+// The error for names declared more than once (the cold path of check_unique_names): one
+// error per repeated name, naming every declaration of it.
+[[gnu::cold, gnu::noinline]] void report_duplicate_names(const detail::GraphData& g, bool passes,
+                                                         std::vector<GraphError>& errors) {
+  std::map<std::string_view, std::vector<std::uint32_t>> by_name;
+  const std::size_t n = passes ? g.passes.size() : g.resources.size();
+  for (std::uint32_t i = 0; i < n; ++i) by_name[passes ? g.passes[i].name : g.resources[i].name].push_back(i);
+  // In declaration order of each name's first use, as every other error.
+  std::vector<std::pair<std::uint32_t, std::string_view>> repeated;
+  for (const auto& [name, indices] : by_name)
+    if (indices.size() > 1) repeated.emplace_back(indices.front(), name);
+  std::sort(repeated.begin(), repeated.end());
+  for (const auto& [first, name] : repeated) {
+    const std::vector<std::uint32_t>& indices = by_name[name];
+    GraphError e{GraphErrorKind::DuplicateName, {}, {}, {}};
+    std::string list;
+    for (std::uint32_t i : indices) {
+      if (passes) {
+        list += weft::format("{}#{}", list.empty() ? "" : ", ", i);
+        e.passes.emplace_back(name);
+        continue;
+      }
+      const detail::ResourceNode& r = g.resources[i];
+      const std::string by = r.imported ? std::string("imported")
+                             : r.creator < g.passes.size()
+                                 ? weft::format("created by pass '{}'", g.passes[r.creator].name)
+                                 : std::string("created");
+      list += weft::format("{}{}", list.empty() ? "" : ", ", by);
+      if (r.creator < g.passes.size()) e.passes.emplace_back(g.passes[r.creator].name);
+      e.resources.emplace_back(name);
+    }
+    if (passes)
+      e.message = weft::format("{} passes are named '{}' (passes {} in declaration order): culled(), find_pass(), "
+                               "errors and dumps name passes by name, so give each its own (e.g. '{}.{}')",
+                               indices.size(), name, list, name, 2);
+    else
+      e.message = weft::format("{} {}s are named '{}' ({}): find_texture(), errors and dumps name resources by "
+                               "name, so give each its own (e.g. a suffix per pass or per object)",
+                               indices.size(), g.resources[first].type == ResourceType::Texture ? "texture" : "buffer",
+                               name, list);
+    errors.push_back(std::move(e));
+  }
+}
+
+// A hash of a pass or resource name for check_unique_names, which runs on every compile and
+// should cost a few instructions per name: names are short, so their first, middle and last
+// eight bytes decide it (equal hashes are compared in full); long ones take the library hash.
+[[gnu::always_inline]] inline std::uint64_t name_hash(std::string_view s) {
+  const std::size_t n = s.size();
+  if (n > 24) return std::hash<std::string_view>{}(s);
+  std::uint64_t a = 0, b = 0, c = 0;
+  if (n >= 8) {
+    std::memcpy(&a, s.data(), 8);
+    std::memcpy(&b, s.data() + (n - 8), 8);
+    std::memcpy(&c, s.data() + (n - 8) / 2, 8);
+  } else if (n >= 4) {
+    std::uint32_t x, y;
+    std::memcpy(&x, s.data(), 4);
+    std::memcpy(&y, s.data() + (n - 4), 4);
+    a = x;
+    b = y;
+  } else if (n > 0) {
+    a = std::uint64_t(std::uint8_t(s[0])) | std::uint64_t(std::uint8_t(s[n / 2])) << 8 |
+        std::uint64_t(std::uint8_t(s[n - 1])) << 16;
+  }
+  std::uint64_t h = (a ^ n) * 0x9E3779B97F4A7C15ull;
+  h = (h ^ (h >> 29) ^ b) * 0xBF58476D1CE4E5B9ull;
+  h = (h ^ (h >> 32) ^ c) * 0x94D049BB133111EBull;
+  return h ^ (h >> 31);
+}
+
+// Whether any two of `count` names (name(i)) are equal, by an open-addressing table of
+// indices into them: one hash and about one probe per name.
+template <class Name>
+[[gnu::always_inline]] inline bool has_duplicate(std::vector<std::uint32_t>& slots, std::size_t count, Name&& name) {
+  if (count < 2) return false;
+  std::size_t size = 16;
+  while (size < count * 2) size *= 2;
+  slots.assign(size, invalid_index);
+  const std::size_t mask = size - 1;
+  for (std::uint32_t i = 0; i < count; ++i) {
+    const std::string_view key = name(i);
+    for (std::size_t at = name_hash(key) & mask;; at = (at + 1) & mask) {
+      const std::uint32_t seen = slots[at];
+      if (seen == invalid_index) {
+        slots[at] = i;
+        break;
+      }
+      if (name(seen) == key) return true;
+    }
+  }
+  return false;
+}
+
+// Names identify passes and resources (culled(), find_pass, errors, dumps): two passes, or two
+// resources, with one name make them disagree about which is meant. Checked in every
+// compile, a reused plan's too: names are not part of what a plan is compared by.
+void check_unique_names(detail::GraphData& g, std::vector<GraphError>& errors) {
+  if (has_duplicate(g.name_slots, g.passes.size(), [&](std::uint32_t i) { return g.passes[i].name; }))
+    report_duplicate_names(g, true, errors);
+  if (has_duplicate(g.name_slots, g.resources.size(), [&](std::uint32_t i) { return g.resources[i].name; }))
+    report_duplicate_names(g, false, errors);
+}
+
+// For a frame that repeats the last one: its names are unique if they are last frame's (which
+// its compile checked) -- a comparison, cheaper than hashing them; otherwise checked in full.
+bool unique_names_as_before(detail::GraphData& now, const detail::GraphData& before, std::vector<GraphError>& errors,
+                            bool& checked) {
+  bool same = true;
+  for (std::size_t p = 0; p < now.passes.size() && same; ++p) same = now.passes[p].name == before.passes[p].name;
+  for (std::size_t r = 0; r < now.resources.size() && same; ++r) same = now.resources[r].name == before.resources[r].name;
+  if (same) return true;
+  check_unique_names(now, errors);
+  checked = true;
+  return errors.empty();
+}
+
 }  // namespace
 
 std::expected<CompiledGraph, GraphErrors> RenderGraph::compile(const CompileOptions& options) const {
   // Last frame's plan, when this frame declares exactly what it did and its compiled graph
   // is gone: only the names (and the callbacks, read from this graph at execute) change.
+  std::vector<GraphError> name_errors;
+  bool names_checked = false;
   std::unique_ptr<detail::CompiledState> state;
   if (detail::GraphData* before = data_->previous) {
     state = take_spare_state(*before);
     if (state && data_->current_pass == invalid_index && state->pass_count == before->passes.size() &&
         state->resource_count == before->resources.size() && same_options(*state, options) &&
-        detail::same_declarations(*data_, *before)) {
+        detail::same_declarations(*data_, *before) && unique_names_as_before(*data_, *before, name_errors, names_checked)) {
       state->graph = data_;
       state->frame_index = 0;
       state->reused = true;
@@ -737,6 +937,7 @@ std::expected<CompiledGraph, GraphErrors> RenderGraph::compile(const CompileOpti
       return CompiledGraph(std::move(state));
     }
   }
+  if (!names_checked) check_unique_names(*data_, name_errors);
   if (!state) state = take_spare_state(*data_);
   if (!state) state = std::make_unique<detail::CompiledState>();
   detail::drop_gpu_objects(*state);  // a recycled state's gpu objects belong to its old plan
@@ -749,6 +950,7 @@ std::expected<CompiledGraph, GraphErrors> RenderGraph::compile(const CompileOpti
   state->planned_aliasing = options.aliasing;
   state->planned_custom_sizes = bool(options.texture_requirements) || bool(options.buffer_requirements);
   GraphErrors errors{data_->name, data_->declaration_errors};
+  for (GraphError& e : name_errors) errors.errors.push_back(std::move(e));
   if (data_->current_pass != invalid_index)
     errors.errors.push_back(GraphError{GraphErrorKind::InvalidDescriptor,
                                        weft::format("compile() called inside the setup of pass '{}'",

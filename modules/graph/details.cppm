@@ -257,6 +257,8 @@ struct GraphData {
 
   // The state of a compiled graph that is gone, for the next compile() to reuse. A compiled
   // graph may be destroyed on another thread than the one compiling, hence the lock.
+  // compile()'s table of names seen (check_unique_names), kept for its capacity.
+  std::vector<std::uint32_t> name_slots;
   std::mutex spare_state_mutex;
   std::unique_ptr<CompiledState> spare_state;
 };

@@ -25,6 +25,7 @@ std::string_view to_string(GraphErrorKind kind) {
     case GraphErrorKind::WrongPassKind: return "wrong pass kind";
     case GraphErrorKind::SampleCount: return "sample count";
     case GraphErrorKind::Memory: return "memory";
+    case GraphErrorKind::DuplicateName: return "duplicate name";
   }
   return "?";
 }

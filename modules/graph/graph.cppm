@@ -124,6 +124,8 @@ class PassContext {
 // holds the memory gets memory of its own. Objects the execute callbacks captured are
 // destroyed with the graph, or, while its compiled graph lives, when the next graph reuses
 // the memory. What is kept lives as long as the GraphMemory or the last graph made from it.
+// A RenderGraph made without one uses its thread's (for_this_thread()), so the frame loop
+// written the plain way costs what this one costs.
 class GraphMemory {
  public:
   GraphMemory();
@@ -133,6 +135,11 @@ class GraphMemory {
   // Frees what is kept now (e.g. after a frame much larger than the ones to come).
   void release();
 
+  // The memory of the calling thread, which `RenderGraph(name)` uses. It keeps only what no
+  // compiled graph still holds, and no gpu objects (transients are recreated next frame), so
+  // nothing of a device outlives the device; it is freed when the thread ends or by release().
+  [[nodiscard]] static GraphMemory& for_this_thread();
+
  private:
   std::shared_ptr<detail::KeptGraphs> kept_;
   friend class RenderGraph;
@@ -141,6 +148,7 @@ class GraphMemory {
 // ---- the graph -------------------------------------------------------------------------
 class RenderGraph {
  public:
+  // A graph in the memory its thread's last graph left (GraphMemory::for_this_thread()).
   explicit RenderGraph(std::string_view name = "frame");
   // A graph in memory the last graph made with `memory` left (see GraphMemory).
   RenderGraph(std::string_view name, GraphMemory& memory);
@@ -214,13 +222,15 @@ class RenderGraph {
   [[nodiscard]] std::size_t resource_count() const;
   [[nodiscard]] std::string_view resource_name(std::uint32_t index) const;
   // The latest version of the texture declared (created or imported) as `name` -- the last
-  // one when a name repeats -- or an invalid handle: how a frame finds an intermediate by
-  // name after its passes were added (`weft render --output NAME`).
+  // one if the name repeats, which compile() refuses -- or an invalid handle: how a frame
+  // finds an intermediate by name after its passes were added (`weft render --output NAME`).
   [[nodiscard]] TextureHandle find_texture(std::string_view name) const;
   // A texture's descriptor as declared (relative sizes unresolved: TextureSize::resolve).
   [[nodiscard]] std::optional<TextureDesc> texture_desc(TextureHandle handle) const;
 
-  // Validates, culls, orders, plans memory and barriers. The compiled graph keeps what it
+  // Validates, culls, orders, plans memory and barriers. Names identify passes and resources
+  // (culled(), find_pass, errors, dumps), so two passes, or two resources, with one name are
+  // an error (GraphErrorKind::DuplicateName) -- a pass and a resource may share one. The compiled graph keeps what it
   // needs of this graph alive; passes added later are not part of it. After reset(), a frame
   // that declares exactly what the last one did takes the last compiled graph's plan over
   // once that is gone (see reset()): the result is the same, for the cost of a comparison.

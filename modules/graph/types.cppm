@@ -167,6 +167,7 @@ enum class GraphErrorKind : std::uint8_t {
   WrongPassKind,              // a declared pass kind that its uses contradict
   SampleCount,                // multisampled attachments that differ, or a multisampled texture read per texel
   Memory,                     // the device refused to size or place a transient resource
+  DuplicateName,              // two passes, or two resources, declared with one name
 };
 std::string_view to_string(GraphErrorKind kind);
 

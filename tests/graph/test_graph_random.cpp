@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <optional>
 #include <random>
 #include <set>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 import weft.core;
@@ -444,7 +446,8 @@ TEST_CASE("reset: a graph rebuilt after reset() compiles exactly as a new graph,
     CHECK(reused.pass_count() == 0);
     CHECK(reused.resource_count() == 0);
     const Model model = build(reused, seed);
-    RenderGraph fresh("random");
+    GraphMemory fresh_memory;  // nothing kept: a compile from scratch
+    RenderGraph fresh("random", fresh_memory);
     build(fresh, seed);
     auto compiled = reused.compile({.output_extent = {64, 64, 1}});
     auto expected = fresh.compile({.output_extent = {64, 64, 1}});
@@ -476,7 +479,8 @@ TEST_CASE("reset: an identical rebuild reuses last frame's plan, which equals a 
       CHECK_MESSAGE(compiled->plan_reused() == (frame == 1), "seed " << seed << " frame " << frame);
       reused += compiled->plan_reused() ? 1 : 0;
       check(model, *compiled, seed);
-      RenderGraph fresh("random");
+      GraphMemory fresh_memory;  // nothing kept: a compile from scratch
+      RenderGraph fresh("random", fresh_memory);
       build(fresh, seed);
       auto expected = fresh.compile({.output_extent = {64, 64, 1}});
       REQUIRE(expected);
@@ -507,7 +511,8 @@ TEST_CASE("GraphMemory: a new graph per frame compiles exactly as a graph of its
       auto compiled = graph.compile({.output_extent = {64, 64, 1}});
       REQUIRE_MESSAGE(compiled, "seed " << seed << ": " << compiled.error().to_string());
       check(model, *compiled, seed);
-      RenderGraph fresh("random");
+      GraphMemory fresh_memory;  // nothing kept: a compile from scratch
+      RenderGraph fresh("random", fresh_memory);
       build(fresh, seed);
       auto expected = fresh.compile({.output_extent = {64, 64, 1}});
       REQUIRE(expected);
@@ -528,10 +533,118 @@ TEST_CASE("GraphMemory: a new graph per frame compiles exactly as a graph of its
   CHECK(reused == 150);
 }
 
+TEST_CASE("A RenderGraph made the plain way uses its thread's memory: planned as in fresh memory, identical frames reuse the plan") {
+  // `RenderGraph graph(name);` every frame, the way Filament's and Frostbite's users write it,
+  // costs what a GraphMemory frame loop costs (weft-bench-graph, build "default").
+  const CompileOptions options{.output_extent = {64, 64, 1}};
+  GraphMemory::for_this_thread().release();
+  int reused = 0;
+  for (std::uint32_t seed = 1; seed <= 60; ++seed) {
+    for (int frame = 0; frame < 2; ++frame) {
+      std::string dump;
+      {
+        RenderGraph graph("random");
+        CHECK(graph.pass_count() == 0);
+        CHECK(graph.resource_count() == 0);
+        const Model model = build(graph, seed);
+        auto compiled = graph.compile(options);
+        REQUIRE_MESSAGE(compiled, "seed " << seed << ": " << compiled.error().to_string());
+        check(model, *compiled, seed);
+        if (frame == 0) CHECK_FALSE(compiled->plan_reused());
+        reused += compiled->plan_reused() ? 1 : 0;
+        dump = compiled->dump();
+      }
+      GraphMemory cold;  // a graph in memory nobody used before
+      RenderGraph fresh("random", cold);
+      build(fresh, seed);
+      auto expected = fresh.compile(options);
+      REQUIRE(expected);
+      CHECK_FALSE(expected->plan_reused());
+      CHECK_MESSAGE(dump == expected->dump(), "seed " << seed << " frame " << frame);
+    }
+  }
+  CHECK(reused == 60);
+}
+
+TEST_CASE("A thread's memory keeps nothing a frame captured, nothing a live compiled graph holds, and is per thread") {
+  const CompileOptions options{.output_extent = {64, 64, 1}};
+  auto frame_capturing = [](RenderGraph& graph, std::shared_ptr<int> captured) {
+    struct Data {
+      TextureHandle out;
+    };
+    auto& data = graph.add_pass<Data>(
+        "capture",
+        [](PassBuilder& b, Data& d) {
+          d.out = b.write(b.create_texture("out", {.format = gpu::Format::RGBA8Unorm}), TextureUse::ColorAttachment);
+        },
+        [captured](const PassResources&, const Data&, PassContext&) { (void)*captured; });
+    graph.mark_output(data.out);
+  };
+  SUBCASE("the graph destroyed after its compiled graph: what the pass captured goes with the graph") {
+    auto object = std::make_shared<int>(1);
+    const std::weak_ptr<int> watch = object;
+    {
+      RenderGraph graph("captures");
+      frame_capturing(graph, std::move(object));
+      auto compiled = graph.compile(options);
+      REQUIRE(compiled);
+      CHECK_FALSE(watch.expired());
+    }
+    CHECK(watch.expired());
+  }
+  SUBCASE("the compiled graph outlives its graph: the capture goes with the compiled graph, not into the memory") {
+    auto object = std::make_shared<int>(2);
+    const std::weak_ptr<int> watch = object;
+    std::optional<CompiledGraph> compiled;
+    {
+      RenderGraph graph("captures");
+      frame_capturing(graph, std::move(object));
+      auto result = graph.compile(options);
+      REQUIRE(result);
+      compiled.emplace(std::move(*result));
+    }
+    CHECK_FALSE(watch.expired());  // the compiled graph still needs it
+    compiled.reset();
+    CHECK(watch.expired());
+    // and the next plain graph still plans correctly
+    RenderGraph next("random");
+    build(next, 3);
+    auto again = next.compile(options);
+    REQUIRE(again);
+  }
+  SUBCASE("two threads building plain graphs at once each use their own memory") {
+    auto run = [&](std::uint32_t first_seed, std::vector<std::string>& dumps) {
+      for (std::uint32_t seed = first_seed; seed < first_seed + 40; ++seed) {
+        RenderGraph graph("random");
+        build(graph, seed);
+        auto compiled = graph.compile(options);
+        dumps.push_back(compiled ? compiled->dump() : compiled.error().to_string());
+      }
+    };
+    std::vector<std::string> a, b;
+    std::thread other([&] { run(100, b); });
+    run(200, a);
+    other.join();
+    for (std::uint32_t i = 0; i < 40; ++i) {
+      GraphMemory cold_a, cold_b;
+      RenderGraph expect_a("random", cold_a), expect_b("random", cold_b);
+      build(expect_a, 200 + i);
+      build(expect_b, 100 + i);
+      auto ea = expect_a.compile(options);
+      auto eb = expect_b.compile(options);
+      REQUIRE(ea);
+      REQUIRE(eb);
+      CHECK_MESSAGE(a[i] == ea->dump(), "seed " << 200 + i);
+      CHECK_MESSAGE(b[i] == eb->dump(), "seed " << 100 + i);
+    }
+  }
+}
+
 TEST_CASE("GraphMemory: overlapping graphs, a memory released or destroyed before its graph, moved graphs") {
   const CompileOptions options{.output_extent = {64, 64, 1}};
   auto expected_dump = [&](std::uint32_t seed) {
-    RenderGraph fresh("random");
+    GraphMemory fresh_memory;  // nothing kept: a compile from scratch
+    RenderGraph fresh("random", fresh_memory);
     build(fresh, seed);
     auto expected = fresh.compile(options);
     REQUIRE(expected);
@@ -664,7 +777,8 @@ TEST_CASE("reset: any change to what a plan depends on makes compile() plan agai
     auto compiled = graph.compile(options);
     REQUIRE_MESSAGE(compiled, compiled.error().to_string());
     CHECK_FALSE(compiled->plan_reused());
-    RenderGraph fresh("variants");
+    GraphMemory fresh_memory;  // nothing kept: a compile from scratch
+    RenderGraph fresh("variants", fresh_memory);
     build_variant(fresh, v.change <= 8 ? v.change : 0);
     auto expected = fresh.compile(options);
     REQUIRE(expected);

@@ -287,7 +287,10 @@ TEST_SUITE("graph errors") {
     REQUIRE_FALSE(compiled);
     const GraphError& e = only_error(compiled.error());
     CHECK(e.kind == GraphErrorKind::Cycle);
-    CHECK(e.message == "cycle: 'a' -> 'b' -> 'a' through 'y', 'x'");
+    CHECK(e.message ==
+          "cycle: 'a' -> 'b' -> 'a' through 'y', 'x'; 'b' reads version 1 of texture 'x', which 'a' overwrites, so it "
+          "must run first -- if it should see 'a''s result, it holds a stale handle: read the one that write() "
+          "returned");
     CHECK(e.passes == std::vector<std::string>{"a", "b"});
     CHECK(e.resources == std::vector<std::string>{"y", "x"});
   }
@@ -315,7 +318,8 @@ TEST_SUITE("graph errors") {
     REQUIRE_FALSE(compiled);
     const GraphError& e = only_error(compiled.error());
     CHECK(e.kind == GraphErrorKind::Cycle);
-    CHECK(e.message == "cycle: 'a' -> 'b' -> 'c' -> 'a' through 'y', 'w', 'x'");
+    CHECK(contains(e.message, "cycle: 'a' -> 'b' -> 'c' -> 'a' through 'y', 'w', 'x'; 'c' reads version 1 of "
+                              "texture 'x', which 'a' overwrites"));
     CHECK(e.passes == std::vector<std::string>{"a", "b", "c"});
   }
 
@@ -451,6 +455,81 @@ TEST_SUITE("graph errors") {
     CHECK(e.resources == std::vector<std::string>{"params"});
   }
 
+  TEST_CASE("two passes with one name: an error naming both, whichever is culled; a pass and a resource may share a name") {
+    RenderGraph graph;
+    auto out = graph.import_texture("out", imported_desc(), gpu::Access::Undefined);
+    TextureHandle a;
+    graph.add_pass("blur", [&](PassBuilder& b) { a = b.write(b.create_texture("blur", color_desc()), TextureUse::ColorAttachment); });
+    graph.add_pass("blur", [&](PassBuilder& b) { (void)b.write(b.create_texture("unused", color_desc()), TextureUse::ColorAttachment); });
+    graph.add_pass("compose", [&](PassBuilder& b) {
+      b.read(a, TextureUse::Sampled);
+      out = b.write(out, TextureUse::ColorAttachment);
+    });
+    graph.add_pass("blur", [&](PassBuilder& b) { (void)b.write(b.create_texture("unused2", color_desc()), TextureUse::ColorAttachment); });
+    graph.mark_output(out);
+    auto compiled = graph.compile(options);
+    REQUIRE_FALSE(compiled);
+    const GraphError& e = only_error(compiled.error());
+    CHECK(e.kind == GraphErrorKind::DuplicateName);
+    CHECK(e.message ==
+          "3 passes are named 'blur' (passes #0, #1, #3 in declaration order): culled(), find_pass(), errors and dumps "
+          "name passes by name, so give each its own (e.g. 'blur.2')");
+    CHECK(e.passes == std::vector<std::string>{"blur", "blur", "blur"});
+  }
+
+  TEST_CASE("two resources with one name: one error per name, naming who declared each; textures and buffers alike") {
+    RenderGraph graph;
+    auto out = graph.import_texture("depth", imported_desc(), gpu::Access::Undefined);
+    graph.add_pass("shadow", [&](PassBuilder& b) {
+      (void)b.write(b.create_texture("depth", color_desc(32, 32, gpu::Format::Depth32Float)), TextureUse::DepthAttachment);
+      (void)b.write(b.create_buffer("params", {.size = 256}), BufferUse::StorageWrite);
+      b.side_effect();
+    });
+    graph.add_pass("main", [&](PassBuilder& b) {
+      (void)b.write(b.create_buffer("params", {.size = 256}), BufferUse::StorageWrite);
+      out = b.write(out, TextureUse::ColorAttachment);
+    });
+    graph.mark_output(out);
+    auto compiled = graph.compile(options);
+    REQUIRE_FALSE(compiled);
+    REQUIRE(compiled.error().size() == 2);
+    const GraphError& depth = compiled.error().errors[0];
+    CHECK(depth.kind == GraphErrorKind::DuplicateName);
+    CHECK(depth.message ==
+          "2 textures are named 'depth' (imported, created by pass 'shadow'): find_texture(), errors and dumps name "
+          "resources by name, so give each its own (e.g. a suffix per pass or per object)");
+    CHECK(depth.resources == std::vector<std::string>{"depth", "depth"});
+    CHECK(depth.passes == std::vector<std::string>{"shadow"});
+    const GraphError& params = compiled.error().errors[1];
+    CHECK(params.message ==
+          "2 buffers are named 'params' (created by pass 'shadow', created by pass 'main'): find_texture(), errors and "
+          "dumps name resources by name, so give each its own (e.g. a suffix per pass or per object)");
+    CHECK(params.passes == std::vector<std::string>{"shadow", "main"});
+  }
+
+  TEST_CASE("a duplicate name in a frame that otherwise repeats the last one is still refused (names are not part of a reused plan)") {
+    RenderGraph graph;
+    auto frame = [&](const char* second_name) {
+      graph.reset();
+      auto out = graph.import_texture("out", imported_desc(), gpu::Access::Undefined);
+      TextureHandle t;
+      graph.add_pass("first", [&](PassBuilder& b) { t = b.write(b.create_texture("t", color_desc()), TextureUse::ColorAttachment); });
+      graph.add_pass(second_name, [&](PassBuilder& b) {
+        b.read(t, TextureUse::Sampled);
+        out = b.write(out, TextureUse::ColorAttachment);
+      });
+      graph.mark_output(out);
+      return graph.compile(options);
+    };
+    for (int round = 0; round < 2; ++round) {
+      REQUIRE(frame("second"));
+      REQUIRE(frame("second"));
+      auto bad = frame("first");
+      REQUIRE_FALSE(bad);
+      CHECK(only_error(bad.error()).kind == GraphErrorKind::DuplicateName);
+    }
+  }
+
   TEST_CASE("attachments of one render pass with different sizes") {
     RenderGraph graph;
     graph.add_pass("gbuffer", [&](PassBuilder& b) {
@@ -467,6 +546,42 @@ TEST_SUITE("graph errors") {
           "pass 'gbuffer': attachments have different sizes: texture 'albedo' is 1920x1080, texture 'depth' is "
           "960x540");
     CHECK(e.resources == std::vector<std::string>{"albedo", "depth"});
+  }
+
+  TEST_CASE("one texture of the wrong size attached by many passes: one error naming it and every pass") {
+    RenderGraph graph;
+    TextureHandle depth;
+    graph.add_pass("clear_depth", [&](PassBuilder& b) {
+      depth = b.write(b.create_texture("depth", {.size = RelativeSize{0.5f}, .format = gpu::Format::Depth32Float}),
+                      TextureUse::DepthAttachment);
+    });
+    for (int i = 0; i < 18; ++i) {
+      graph.add_pass("draw" + std::to_string(i), [&](PassBuilder& b) {
+        (void)b.write(b.create_texture("color" + std::to_string(i), {.size = RelativeSize{1.0f}}),
+                      TextureUse::ColorAttachment);
+        depth = b.write(depth, TextureUse::DepthAttachment);
+        b.side_effect();
+      });
+    }
+    // and an unrelated pass with its own mismatch keeps its own error
+    graph.add_pass("other", [&](PassBuilder& b) {
+      (void)b.write(b.create_texture("a", {.size = gpu::Extent3D{16, 16, 1}}), TextureUse::ColorAttachment);
+      (void)b.write(b.create_texture("b", {.size = gpu::Extent3D{8, 8, 1}}), TextureUse::ColorAttachment);
+      b.side_effect();
+    });
+    auto compiled = graph.compile({.output_extent = {64, 64, 1}});
+    REQUIRE_FALSE(compiled);
+    REQUIRE_MESSAGE(compiled.error().size() == 2, compiled.error().to_string());
+    const GraphError& e = compiled.error().errors[0];
+    CHECK(e.kind == GraphErrorKind::MismatchedAttachmentSizes);
+    CHECK(contains(e.message, "texture 'depth' is 32x32, but the other attachments of the 18 passes it is attached to "
+                              "are 64x64: passes 'draw0', 'draw1', "));
+    CHECK(contains(e.message, "'draw17'; give it their size"));
+    CHECK(e.passes.size() == 18);
+    CHECK(e.resources.front() == "depth");
+    CHECK(e.resources.size() == 19);
+    CHECK(compiled.error().errors[1].message ==
+          "pass 'other': attachments have different sizes: texture 'a' is 16x16, texture 'b' is 8x8");
   }
 
   TEST_CASE("an output never written") {
@@ -524,7 +639,8 @@ TEST_SUITE("graph errors") {
     CHECK(e.kind == GraphErrorKind::ConflictingUsage);
     CHECK(e.message ==
           "pass 'feedback': uses texture 't' both as sampled and as color-attachment; a pass can use a resource one way "
-          "at a time");
+          "at a time: to read what it writes, copy it to a second resource in an earlier pass (or split the pass in "
+          "two); one texture per mip or layer where they are used apart");
   }
 
   TEST_CASE("a write usage passed to read()") {
