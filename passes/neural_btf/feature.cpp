@@ -53,7 +53,7 @@ class NeuralBtfFeature final : public FeaturePass {
   }
 
   Result<void> add_passes(RenderGraph& graph, const FeatureFrame& frame) override {
-    return pass_.add(graph, draws_, frame_materials_, frame.width, frame.height);
+    return pass_.add(graph, draws_, frame_materials_, frame.width, frame.height, frame.uniforms.view_projection);
   }
 
   [[nodiscard]] std::vector<std::string> warnings() const override { return warnings_; }
@@ -169,7 +169,7 @@ const FeatureDescriptor& neural_btf_feature() {
       .check_material = check_by_parsing<&btf::parse_neural_btf_material>, .create = &NeuralBtfFeature::create,
       // The default (batched) path's passes; a "decoder": "fragment" material draws in
       // neural_btf_fragment instead, which the trade-off study's pass times then leave out.
-      .passes = {"neural_btf", "neural_btf_list_clear", "neural_btf_list", "neural_btf_decode", "neural_btf_resolve"},
+      .passes = {"neural_btf", "neural_btf_list_clear", "neural_btf_list", "neural_btf_decode", "neural_btf_composite"},
       .knobs = {
           choice_knob("filter", {"nearest", "bilinear"}, "texels decoded per light: 1, or 4 blended"),
           boolean_knob("ambient", "one more decode (ω_i = n) times the environment's SH irradiance"),

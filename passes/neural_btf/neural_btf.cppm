@@ -189,7 +189,8 @@ struct NeuralBtfGpuMaterial;
 // The graph passes: draw neural BTF objects into "scene_color"/"scene_depth" (loading what
 // the forward pass drew), reading "frame_uniforms" and "shadow_map". Batched materials: the
 // passes neural_btf (geometry into the G-buffer), neural_btf_decode (compute),
-// neural_btf_resolve (into the scene colour); fragment-path materials: neural_btf_fragment.
+// neural_btf_composite (the objects again, into the scene colour and depth); fragment-path
+// materials: neural_btf_fragment.
 class NeuralBTFMaterial {
  public:
   static Result<NeuralBTFMaterial> create(gpu::Device& device);
@@ -202,15 +203,16 @@ class NeuralBTFMaterial {
                                                                 const GpuBtfReference& reference) const;
   // `draws` and `materials` must outlive the graph's execution; the materials' model buffers
   // are imported and declared as storage reads.
-  // `width` x `height`: the frame (the batched path's radiance buffer holds one RGBA per pixel).
+  // `width` x `height`: the frame; `view_projection`: the frame's camera (with its jitter), by
+  // which the batched path sizes its G-buffer and lists to the pixels its objects can cover.
   Result<void> add(RenderGraph& graph, std::span<const NeuralBtfDraw> draws,
                    std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials, std::uint32_t width,
-                   std::uint32_t height) const;
+                   std::uint32_t height, const mat4& view_projection) const;
 
  private:
   Result<void> add_batched(RenderGraph& graph, std::vector<NeuralBtfDraw> draws,
                            std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials, std::uint32_t width,
-                           std::uint32_t height) const;
+                           std::uint32_t height, const mat4& view_projection) const;
   struct State;
   std::shared_ptr<State> state_;
 };

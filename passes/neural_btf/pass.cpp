@@ -244,22 +244,25 @@ struct NeuralBTFMaterial::State {
   gpu::PipelineLayout decode_pipeline_layout;
   gpu::ComputePipeline decode_tiled;
   gpu::ComputePipeline decode_generic;
-  gpu::BindGroupLayout resolve_layout;
-  gpu::PipelineLayout resolve_pipeline_layout;
-  gpu::RenderPipeline resolve_pipeline;
+  gpu::BindGroupLayout resolve_layout;  // the composite's decoded inputs: marker, radiance
   gpu::Sampler nearest;
-  // An MSAA frame's last step instead of the resolve: the objects drawn again into the
-  // multisampled colour and depth, each pixel taking its decode (neural_btf_composite.frag).
+  // The last step: the objects drawn again into the scene colour and depth (multisampled or
+  // not), depth-tested there, each pixel taking its decode (neural_btf_composite.frag).
   std::shared_ptr<const gpu::PipelineLayout> composite_layout;
   frame::PipelineSamples composite_pipeline;
 };
 
 namespace {
-// The G-buffer of the batched path (neural_btf_gbuffer.frag): fp32, so the decode sees the
-// fragment path's numbers exactly.
-constexpr gpu::Format gbuffer_format = gpu::Format::RGBA32Float;
-constexpr const char* gbuffer_names[4] = {"neural_btf_coords", "neural_btf_light", "neural_btf_light_weight",
-                                          "neural_btf_ambient_weight"};
+// The G-buffer of the batched path (neural_btf_gbuffer.frag): the twelve numbers a decode
+// reads as fp32, so the decode sees the fragment path's numbers exactly, packed without gaps
+// into three RGBA32F targets, and the marker in a half (exact for its small integers): 50
+// bytes a pixel where four RGBA32F targets with a marker in one were 64. (Halves for the
+// weights and 16-bit directions were tried: 3.8e-4 RMSE against the fragment path.)
+constexpr gpu::Format gbuffer_formats[4] = {gpu::Format::RGBA32Float, gpu::Format::RGBA32Float,
+                                            gpu::Format::RGBA32Float, gpu::Format::R16Float};
+constexpr const char* gbuffer_names[4] = {"neural_btf_coords", "neural_btf_light", "neural_btf_weights",
+                                          "neural_btf_marker"};
+constexpr int gbuffer_marker = 3;  // the target every pass that only asks "is this a BTF pixel" reads
 constexpr std::uint32_t list_tile = 16;    // btf_list_taps.comp's TILE
 constexpr std::uint32_t tap_classes = 4;   // btf_pixel_taps.glsl's BTF_CLASSES: pixels of 1, 2, 4, 8 decodes
 struct DecodePush {
@@ -286,10 +289,6 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
   WEFT_TRY(auto generic_cs, device.create_shader_module({.label = "btf_decode_taps_generic.comp",
                                                    .stage = ShaderStage::Compute,
                                                    .spirv = shaders::btf_decode_taps_generic_comp()}));
-  WEFT_TRY(auto fullscreen_vs, device.create_shader_module(
-        {.label = "fullscreen.vert", .stage = ShaderStage::Vertex, .spirv = frame::fullscreen_vertex_spirv()}));
-  WEFT_TRY(auto resolve_fs, device.create_shader_module(
-        {.label = "neural_btf_resolve.frag", .stage = ShaderStage::Fragment, .spirv = shaders::neural_btf_resolve_frag()}));
 
   WEFT_TRY(auto frame_layout, device.create_bind_group_layout(
         {.label = "neural-btf-frame",
@@ -311,7 +310,7 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
          .fragment = &gbuffer_fs,
          .vertex_buffers = {frame::vertex_layout()},
          .cull_mode = gpu::CullMode::None,
-         .color_targets = {{gbuffer_format}, {gbuffer_format}, {gbuffer_format}, {gbuffer_format}},
+         .color_targets = {{gbuffer_formats[0]}, {gbuffer_formats[1]}, {gbuffer_formats[2]}, {gbuffer_formats[3]}},
          .depth_stencil = gpu::DepthStencilState{.format = frame::scene_depth_format}}));
   // The fragment path in every sample count (it is what an MSAA frame draws): each kept set
   // owns its shaders, so the reference gets its own copy of the vertex shader.
@@ -351,13 +350,6 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
         {.label = "neural-btf-resolve",
          .entries = {{0, BindingType::TextureSampler, ShaderStage::Fragment},
                      {1, BindingType::ReadOnlyStorageBuffer, ShaderStage::Fragment}}}));
-  WEFT_TRY(auto resolve_pipeline_layout, device.create_pipeline_layout(
-        {.label = "neural-btf-resolve", .bind_group_layouts = {&resolve_layout}, .push_constant_size = 4}));
-  WEFT_TRY(auto resolve_pipeline, device.create_render_pipeline({.label = "neural-btf-resolve",
-                                                           .layout = &resolve_pipeline_layout,
-                                                           .vertex = &fullscreen_vs,
-                                                           .fragment = &resolve_fs,
-                                                           .color_targets = {{frame::scene_color_format}}}));
   WEFT_TRY(auto nearest, device.create_sampler(
         {.label = "neural-btf-gbuffer", .mag_filter = gpu::FilterMode::Nearest, .min_filter = gpu::FilterMode::Nearest}));
   WEFT_TRY(auto made_composite_layout,
@@ -380,7 +372,6 @@ Result<NeuralBTFMaterial> NeuralBTFMaterial::create(gpu::Device& device) {
                                               std::move(list_pipeline_layout), std::move(list_pipeline), std::move(decode_layout),
                                               std::move(decode_pipeline_layout), std::move(decode_tiled),
                                               std::move(decode_generic), std::move(resolve_layout),
-                                              std::move(resolve_pipeline_layout), std::move(resolve_pipeline),
                                               std::move(nearest), composite_layout, std::move(composite_pipeline)});
   return pass;
 }
@@ -412,22 +403,55 @@ bool batched(const NeuralBtfGpuMaterial& mat) {
   return !mat.reference && m.decoder == btf::BtfDecoder::Batched && m.debug_view == btf::BtfDebugView::None;
 }
 
-NeuralBtfConstants draw_constants(const NeuralBtfDraw& draw, const btf::NeuralBtfParams& m, float marker) {
+NeuralBtfConstants draw_constants(const NeuralBtfDraw& draw, const btf::NeuralBtfParams& m, float marker,
+                                  vec2 gbuffer_origin = vec2(0.0f)) {
   const int flags = (m.ambient ? flag_ambient : 0) | (m.filter == btf::TexelFilter::Bilinear ? flag_bilinear : 0) |
                     (m.shadow ? flag_shadow : 0);
   NeuralBtfConstants c{};
   c.model = draw.model;
   c.uv_scale = vec4(m.uv_scale, float(flags), m.exposure);
   c.tint = vec4(m.tint, 1.0f);
-  c.debug = vec4(float(int(m.debug_view)), marker, 0.0f, 0.0f);
+  c.debug = vec4(float(int(m.debug_view)), marker, gbuffer_origin);
   return c;
+}
+
+// The pixels the draws can cover in a width x height frame: their bounds' corners projected,
+// two pixels of margin (rasterisation rules, a jittered projection). The whole frame when a
+// corner is not in front of the camera (its projection is not bounded), at least one pixel.
+struct PixelRect {
+  std::uint32_t x = 0, y = 0, width = 1, height = 1;
+};
+PixelRect covered_pixels(std::span<const NeuralBtfDraw> draws, const mat4& view_projection, std::uint32_t width,
+                         std::uint32_t height) {
+  const PixelRect frame{0, 0, width, height};
+  float x0 = std::numeric_limits<float>::max(), y0 = x0, x1 = -x0, y1 = -x0;
+  for (const NeuralBtfDraw& d : draws) {
+    const mat4 to_clip = view_projection * d.model;
+    for (int corner = 0; corner < 8; ++corner) {
+      const vec3 p((corner & 1) ? d.mesh->bounds_max.x : d.mesh->bounds_min.x,
+                   (corner & 2) ? d.mesh->bounds_max.y : d.mesh->bounds_min.y,
+                   (corner & 4) ? d.mesh->bounds_max.z : d.mesh->bounds_min.z);
+      const vec4 clip = to_clip * vec4(p, 1.0f);
+      if (!(clip.w > 1e-6f) || !std::isfinite(clip.x) || !std::isfinite(clip.y)) return frame;
+      // Vulkan's viewport: NDC -1..1 to pixels 0..size, y down the image.
+      const float px = (clip.x / clip.w * 0.5f + 0.5f) * float(width), py = (clip.y / clip.w * 0.5f + 0.5f) * float(height);
+      x0 = std::min(x0, px), x1 = std::max(x1, px), y0 = std::min(y0, py), y1 = std::max(y1, py);
+    }
+  }
+  const auto clamp_to = [](float v, std::uint32_t size) {
+    return std::uint32_t(std::clamp(v, 0.0f, float(size)));
+  };
+  const std::uint32_t left = clamp_to(std::floor(x0) - 2.0f, width), right = clamp_to(std::ceil(x1) + 2.0f, width);
+  const std::uint32_t top = clamp_to(std::floor(y0) - 2.0f, height), bottom = clamp_to(std::ceil(y1) + 2.0f, height);
+  if (right <= left || bottom <= top) return {std::min(left, width - 1), std::min(top, height - 1), 1, 1};
+  return {left, top, right - left, bottom - top};
 }
 
 }  // namespace
 
 Result<void> NeuralBTFMaterial::add(RenderGraph& graph, std::span<const NeuralBtfDraw> draws,
                                     std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials, std::uint32_t width,
-                                    std::uint32_t height) const {
+                                    std::uint32_t height, const mat4& view_projection) const {
   for (const auto& d : draws)
     if (!d.mesh || d.material >= materials.size() || !materials[d.material])
       return fail(ErrorKind::InvalidArgument, "neural BTF pass: a draw names material {} of {} (or has no mesh)",
@@ -440,7 +464,8 @@ Result<void> NeuralBTFMaterial::add(RenderGraph& graph, std::span<const NeuralBt
   std::vector<NeuralBtfDraw> batched_draws, fragment_draws;
   for (const auto& d : draws) (batched(*materials[d.material]) ? batched_draws : fragment_draws).push_back(d);
   if (!batched_draws.empty())
-    if (auto ok = add_batched(graph, std::move(batched_draws), materials, width, height); !ok) return ok;
+    if (auto ok = add_batched(graph, std::move(batched_draws), materials, width, height, view_projection); !ok)
+      return ok;
   if (fragment_draws.empty()) return {};
 
   // The fragment path: each distinct model buffer once, so the graph sees the pass read it.
@@ -484,21 +509,26 @@ Result<void> NeuralBTFMaterial::add(RenderGraph& graph, std::span<const NeuralBt
 }
 
 // The batched path (docs/neural-btf.md, "The batched decode"): neural_btf draws the objects
-// into a G-buffer of decode inputs and the scene depth; per model (so the graph orders their
-// writes), neural_btf_list collects the model's pixels from the whole screen into lists by how
-// many decodes each needs, and neural_btf_decode decodes the lists in full batches of 256 rows
-// (indirect dispatches); neural_btf_resolve writes the radiance of the marked pixels into the
-// scene colour.
+// into a G-buffer of decode inputs with a depth of its own; per model (so the graph orders
+// their writes), neural_btf_list collects the model's pixels into lists by how many decodes
+// each needs, and neural_btf_decode decodes the lists in full batches of 256 rows (indirect
+// dispatches); neural_btf_composite draws the objects again into the scene colour and depth,
+// depth-tested there, each pixel taking its decode. The G-buffer, its depth, the lists and
+// the radiance cover only the pixels the objects' bounds project to (covered_pixels), so they
+// take memory by the objects' size on screen, not the frame's.
 Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<NeuralBtfDraw> draws,
                                             std::span<const std::shared_ptr<NeuralBtfGpuMaterial>> materials,
-                                            std::uint32_t width, std::uint32_t height) const {
+                                            std::uint32_t width, std::uint32_t height, const mat4& view_projection) const {
   if (width == 0 || height == 0)
     return fail(ErrorKind::InvalidArgument, "neural BTF pass: the frame is {} x {} pixels", width, height);
   WEFT_TRY(frame::SceneTargets shared, frame::scene_targets(graph.blackboard(), {.environment = false}));
-  // In an MSAA frame the G-buffer (one sample per pixel) cannot share the multisampled depth:
-  // it gets a depth of its own, the objects' nearest surface in each pixel, and the composite
-  // at the end depth-tests them against the scene's samples.
+  // The G-buffer (one sample per pixel, over the objects' rectangle) has a depth of its own --
+  // the objects' nearest surface in each pixel -- and the composite at the end depth-tests them
+  // against the scene's depth (all of its samples in an MSAA frame).
   const std::uint32_t samples = frame::scene_sample_count(graph);
+  const PixelRect rect = covered_pixels(draws, view_projection, width, height);
+  const gpu::Extent3D rect_size{rect.width, rect.height, 1};
+  const vec2 rect_origin(float(rect.x), float(rect.y));
   // The distinct models, in the order the G-buffer's marker numbers them.
   struct Model {
     const gpu::Buffer* buffer;
@@ -532,15 +562,13 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
         d.shadow_map = b.read(shared.shadow_map, TextureUse::Sampled);
         for (const Model& m : models) b.read(m.handle, BufferUse::StorageRead);
         for (int i = 0; i < 4; ++i)
-          d.gbuffer[i] = b.write(b.create_texture(gbuffer_names[i], {.size = RelativeSize{1.0f}, .format = gbuffer_format}),
+          d.gbuffer[i] = b.write(b.create_texture(gbuffer_names[i], {.size = rect_size, .format = gbuffer_formats[i]}),
                                  TextureUse::ColorAttachment);
-        d.depth = samples > 1 ? b.write(b.create_texture("neural_btf_depth", {.size = RelativeSize{1.0f},
-                                                                             .format = frame::scene_depth_format}),
-                                        TextureUse::DepthAttachment)
-                              : b.write(shared.depth, TextureUse::DepthAttachment);
+        d.depth = b.write(b.create_texture("neural_btf_depth", {.size = rect_size, .format = frame::scene_depth_format}),
+                          TextureUse::DepthAttachment);
       },
-      [state, draws, materials, marker_of_draw, samples](const PassResources& res, const GeometryData& d,
-                                                         PassContext& ctx) {
+      [state, draws, materials, marker_of_draw, rect, width, height](const PassResources& res, const GeometryData& d,
+                                                                     PassContext& ctx) {
         auto group = ctx.device().create_bind_group(
             {.label = "neural-btf-frame",
              .layout = &state->frame_layout,
@@ -551,10 +579,12 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
         for (int i = 0; i < 4; ++i)
           rp.color_attachments.push_back({.view = &res.view(d.gbuffer[i]), .load = gpu::LoadOp::Clear,
                                           .clear_color = vec4(0.0f)});
-        rp.depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth),
-                                                   .load = samples > 1 ? gpu::LoadOp::Clear : gpu::LoadOp::Load};
+        rp.depth_attachment = gpu::DepthAttachment{.view = &res.view(d.depth), .load = gpu::LoadOp::Clear};
         auto pass = ctx.encoder().begin_render_pass(rp);
         pass.set_pipeline(state->gbuffer_pipeline);
+        // The frame's viewport, moved so that the rectangle's corner is the targets' origin.
+        pass.set_viewport(-float(rect.x), -float(rect.y), float(width), float(height));
+        pass.set_scissor_rect(0, 0, rect.width, rect.height);
         pass.set_bind_group(0, frame_group);
         for (std::size_t i = 0; i < draws.size(); ++i) {
           const NeuralBtfDraw& draw = draws[i];
@@ -571,10 +601,11 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
 
   // The lists' lengths and the decodes' indirect group counts, zeroed each frame: per model and
   // class (btf_pixel_taps.glsl), a count, and a VkDispatchIndirectCommand behind a pad word.
-  const std::uint64_t pixels = std::uint64_t(width) * height;
+  const std::uint64_t pixels = std::uint64_t(rect.width) * rect.height;
   if (2 * pixels >= (std::uint64_t(1) << 32))
-    return fail(ErrorKind::InvalidArgument, "neural BTF pass: a {} x {} frame has more pixels than the decode list indexes (2^31)",
-                width, height);
+    return fail(ErrorKind::InvalidArgument,
+                "neural BTF pass: its objects cover {} x {} pixels, more than the decode list indexes (2^31)", rect.width,
+                rect.height);
   const std::uint64_t counters = models.size() * tap_classes;
   struct ClearData {
     BufferHandle counts, groups;
@@ -593,7 +624,7 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
   BufferHandle counts = clear.counts, groups = clear.groups, list, radiance;
 
   struct ListData {
-    TextureHandle gbuffer[3];  // light, light weight, ambient weight
+    TextureHandle gbuffer[3];  // light, weights, marker
     BufferHandle counts, groups, list, radiance;
   };
   struct DecodeData {
@@ -616,7 +647,9 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
                                BufferUse::StorageWrite);
           b.kind(PassKind::Compute);
         },
-        [state, width, height, index = std::uint32_t(m)](const PassResources& res, const ListData& d, PassContext& ctx) {
+        // The list and the decode see the G-buffer's rectangle as their frame.
+        [state, width = rect.width, height = rect.height, index = std::uint32_t(m)](const PassResources& res,
+                                                                                    const ListData& d, PassContext& ctx) {
           auto group = ctx.device().create_bind_group(
               {.label = "neural-btf-list",
                .layout = &state->list_layout,
@@ -649,7 +682,7 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
           d.radiance = b.write(radiance, BufferUse::StorageWrite);
           b.kind(PassKind::Compute);
         },
-        [state, width, height, index = std::uint32_t(m), tiled = models[m].tiled](const PassResources& res,
+        [state, width = rect.width, height = rect.height, index = std::uint32_t(m), tiled = models[m].tiled](const PassResources& res,
                                                                                    const DecodeData& d, PassContext& ctx) {
           auto group = ctx.device().create_bind_group(
               {.label = "neural-btf-decode",
@@ -674,7 +707,7 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
     radiance = decode.radiance;
   }
 
-  if (samples > 1) {
+  {
     struct CompositeData {
       BufferHandle uniforms;
       TextureHandle shadow_map, light;
@@ -686,13 +719,13 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
         [&](PassBuilder& b, CompositeData& d) {
           d.uniforms = b.read(shared.uniforms, BufferUse::Uniform);
           d.shadow_map = b.read(shared.shadow_map, TextureUse::Sampled);
-          d.light = b.read(g.gbuffer[1], TextureUse::Sampled);
+          d.light = b.read(g.gbuffer[gbuffer_marker], TextureUse::Sampled);
           d.radiance = b.read(radiance, BufferUse::StorageRead);
           d.color = b.write(shared.color, TextureUse::ColorAttachment);
           d.depth = b.write(shared.depth, TextureUse::DepthAttachment);
         },
-        [state, draws, materials, marker_of_draw, samples](const PassResources& res, const CompositeData& d,
-                                                           PassContext& ctx) {
+        [state, draws, materials, marker_of_draw, samples, rect_origin](const PassResources& res,
+                                                                        const CompositeData& d, PassContext& ctx) {
           auto pipeline = state->composite_pipeline.at(ctx.device(), samples);
           if (!pipeline) return ctx.encoder().report_error(pipeline.error());
           auto frame_group = ctx.device().create_bind_group(
@@ -716,7 +749,7 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
           pass.set_bind_group(1, decoded_kept);
           for (std::size_t i = 0; i < draws.size(); ++i) {
             const NeuralBtfDraw& draw = draws[i];
-            pass.push(draw_constants(draw, materials[draw.material]->params, marker_of_draw[i]));
+            pass.push(draw_constants(draw, materials[draw.material]->params, marker_of_draw[i], rect_origin));
             pass.set_vertex_buffer(0, draw.mesh->vertices);
             pass.set_index_buffer(draw.mesh->indices);
             pass.draw_indexed(draw.mesh->index_count);
@@ -727,36 +760,7 @@ Result<void> NeuralBTFMaterial::add_batched(RenderGraph& graph, std::vector<Neur
     return {};
   }
 
-  struct ResolveData {
-    TextureHandle light;
-    BufferHandle radiance;
-    TextureHandle color;
-  };
-  auto& resolve = graph.add_pass<ResolveData>(
-      "neural_btf_resolve",
-      [&](PassBuilder& b, ResolveData& d) {
-        d.light = b.read(g.gbuffer[1], TextureUse::Sampled);
-        d.radiance = b.read(radiance, BufferUse::StorageRead);
-        d.color = b.write(shared.color, TextureUse::ColorAttachment);
-      },
-      [state, width](const PassResources& res, const ResolveData& d, PassContext& ctx) {
-        auto group = ctx.device().create_bind_group(
-            {.label = "neural-btf-resolve",
-             .layout = &state->resolve_layout,
-             .entries = {gpu::bind(0, res.view(d.light), &state->nearest), gpu::bind(1, res.buffer(d.radiance))}});
-        if (!group) return ctx.encoder().report_error(group.error());
-        const auto& resolve_group = ctx.keep(std::move(*group));
-        auto pass = ctx.encoder().begin_render_pass(
-            {.label = "neural_btf_resolve",
-             .color_attachments = {{.view = &res.view(d.color), .load = gpu::LoadOp::Load}}});
-        pass.set_pipeline(state->resolve_pipeline);
-        pass.set_bind_group(0, resolve_group);
-        pass.push(width);
-        pass.draw(3);
-        pass.end();
-      });
-  frame::put_scene_targets(graph.blackboard(), {.color = resolve.color, .depth = g.depth});
-  return {};
 }
+
 
 }  // namespace weft::passes

@@ -409,34 +409,44 @@ TEST_CASE("the cushion scene through the batched decoder equals the fragment dec
     const auto black = render("batched", true);  // where the cloth is: the pixels that change
     CHECK(std::find(batched.passes.begin(), batched.passes.end(), "neural_btf_decode") != batched.passes.end());
     CHECK(std::find(fragment.passes.begin(), fragment.passes.end(), "neural_btf_fragment") != fragment.passes.end());
+    // The batched path draws its G-buffer over the objects' rectangle (the viewport moved by
+    // the rectangle's corner) and the objects again in its composite: the two can round a
+    // vertex to neighbouring 1/256-pixel steps, so a pixel on a triangle's edge may take the
+    // other triangle's (or a neighbour's) decode. Those pixels are counted and bounded; the
+    // rest equal the fragment path to float rounding.
     double sum = 0.0, cloth_sum = 0.0, worst = 0.0, cloth_mean = 0.0;
-    std::size_t n = 0, cloth = 0;
+    std::size_t n = 0, cloth = 0, edge_flips = 0;
     for (std::uint32_t y = 0; y < c.height; ++y)
       for (std::uint32_t x = 0; x < c.width; ++x) {
-        bool is_cloth = false;
+        bool is_cloth = false, flipped = false;
         for (std::uint32_t ch = 0; ch < 3; ++ch) {
           const double a = batched.hdr.at(x, y, ch), b = fragment.hdr.at(x, y, ch);
           REQUIRE(std::isfinite(a));
           sum += (a - b) * (a - b);
-          worst = std::max(worst, std::abs(a - b));
           ++n;
           is_cloth = is_cloth || std::abs(b - black.hdr.at(x, y, ch)) > 1e-3;
+          flipped = flipped || std::abs(a - b) > 2e-3;
         }
-        if (!is_cloth) continue;
+        if (flipped) ++edge_flips;
+        if (!is_cloth || flipped) continue;
         ++cloth;
         for (std::uint32_t ch = 0; ch < 3; ++ch) {
           const double a = batched.hdr.at(x, y, ch), b = fragment.hdr.at(x, y, ch);
           cloth_sum += (a - b) * (a - b);
           cloth_mean += b / 3.0;
+          worst = std::max(worst, std::abs(a - b));
         }
       }
     const double rmse = std::sqrt(sum / double(n)), cloth_rmse = std::sqrt(cloth_sum / double(3 * std::max<std::size_t>(cloth, 1)));
-    MESSAGE("batched vs fragment: RMSE " << rmse << " over the frame, " << cloth_rmse << " over " << cloth
+    MESSAGE("batched vs fragment: RMSE " << rmse << " over the frame; " << edge_flips
+                                         << " pixels differ by more than 2e-3; over the other " << cloth
                                          << " cloth pixels (mean " << cloth_mean / double(std::max<std::size_t>(cloth, 1))
-                                         << "), max |Δ| " << worst);
+                                         << ") RMSE " << cloth_rmse << ", max |Δ| " << worst);
     CHECK(cloth > c.width * c.height / 20);  // the cushion and the bolt cover a good part of the frame
+    CHECK(edge_flips <= std::max<std::size_t>(3, cloth / 1000));  // about one edge pixel in 20,000 here
     CHECK(rmse <= 1e-3);
-    CHECK(cloth_rmse <= 1e-3);
+    CHECK(cloth_rmse <= 1e-4);
+    CHECK(worst <= 2e-3);
   }
   weft::test::expect_no_validation_messages();
 }
@@ -554,6 +564,62 @@ TEST_CASE("the batched path over two models and all four tap classes equals the 
   weft::test::expect_no_validation_messages();
 }
 
+TEST_CASE("the batched path's rectangle: objects off the frame's edge and a floor behind the camera decode as the fragment path does") {
+  // The G-buffer, lists and radiance cover the rectangle the objects' bounds project to: a
+  // quad half off the left edge clamps it to the frame; a floor that runs behind the camera
+  // (a bound's corner not in front of it) makes it the whole frame.
+  const std::string path = save_model(displayable_model(3, false), "rectangle.wbtf");
+  auto scene_json = [&](const char* decoder, bool floor) {
+    std::string objects = R"({"name": "edge", "mesh": "quad", "material": "cloth",
+                              "transform": {"translation": [-2.7, 0.3, 0], "rotation_degrees": [90, 0, 0]}})";
+    if (floor)
+      objects += R"(, {"name": "floor", "mesh": "floor", "material": "cloth", "transform": {"translation": [0, -1, 0]}})";
+    return weft::format(R"({{"version": 1, "output": {{"width": 96, "height": 64}},
+      "camera": {{"position": [0, 0.5, 5], "target": [0, 0, 0], "fov": 60, "near": 0.1, "far": 100}},
+      "environment": {{"color": [0.3, 0.35, 0.4]}},
+      "lights": [{{"type": "directional", "direction": [0.3, -1, -0.5], "intensity": 1.5}}],
+      "meshes": {{"quad": {{"primitive": "plane", "size": 1, "subdivisions": 1}},
+                  "floor": {{"primitive": "plane", "size": 200, "subdivisions": 1}}}},
+      "materials": {{"cloth": {{"type": "neural_btf", "model": "{}", "shadow": false, "uv_scale": [4, 4],
+                                "decoder": "{}"}}}},
+      "objects": [{}]}})",
+                        path, decoder, objects);
+  };
+  for (const bool floor : {false, true}) {
+    CAPTURE(floor);
+    auto render = [&](const char* decoder) {
+      auto s = load(scene_json(decoder, floor));
+      auto frame = shared_renderer().render(s, {.quality = Quality::Medium, .aces = false, .read_hdr = true});
+      REQUIRE_MESSAGE(frame, (frame ? "" : frame.error().message));
+      return std::move(*frame);
+    };
+    const auto batched = render("batched");
+    const auto fragment = render("fragment");
+    CHECK(std::find(batched.passes.begin(), batched.passes.end(), "neural_btf_composite") != batched.passes.end());
+    std::size_t flips = 0, lit = 0;
+    double sum = 0.0;
+    for (std::uint32_t y = 0; y < 64; ++y)
+      for (std::uint32_t x = 0; x < 96; ++x) {
+        double worst = 0.0, pixel = 0.0;
+        for (std::uint32_t ch = 0; ch < 3; ++ch) {
+          const double a = batched.hdr.at(x, y, ch), b = fragment.hdr.at(x, y, ch);
+          REQUIRE(std::isfinite(a));
+          worst = std::max(worst, std::abs(a - b));
+          pixel += (a - b) * (a - b);
+        }
+        if (fragment.hdr.at(x, y, 0) > 0.45) ++lit;  // brighter than the sky: the cloth
+        if (worst > 2e-3) ++flips;
+        else sum += pixel;
+      }
+    MESSAGE("floor " << floor << ": " << lit << " cloth pixels, " << flips << " edge pixels differ; the rest RMSE "
+                     << std::sqrt(sum / (96.0 * 64.0 * 3.0)));
+    CHECK(lit > (floor ? 1000u : 60u));  // the quad's visible half, and the floor
+    CHECK(flips <= 3);
+    CHECK(std::sqrt(sum / (96.0 * 64.0 * 3.0)) <= 1e-4);
+  }
+  weft::test::expect_no_validation_messages();
+}
+
 TEST_CASE("the renderer adds the neural_btf pass only for scenes that use the material") {
   const std::string path = save_model(displayable_model(3, false), "culling.wbtf");
   const std::string light = R"([{"type": "directional", "direction": [0, 0, -1], "intensity": 1}])";
@@ -561,7 +627,7 @@ TEST_CASE("the renderer adds the neural_btf pass only for scenes that use the ma
   auto report = shared_renderer().describe(with, {.quality = Quality::Low});
   REQUIRE_MESSAGE(report, (report ? "" : report.error().message));
   CHECK(report->passes == std::vector<std::string>{"shadow_map", "forward", "neural_btf", "neural_btf_list_clear",
-                                                   "neural_btf_list", "neural_btf_decode", "neural_btf_resolve",
+                                                   "neural_btf_list", "neural_btf_decode", "neural_btf_composite",
                                                    "background", "tonemap"});
   CHECK(report->dot.find("neural_btf_model") != std::string::npos);
   auto plain = load(quad_scene(R"({"type": "standard"})", light));

@@ -15,10 +15,10 @@ layout(local_size_x = 32) in;
 #else
 #define BTF_T_ROWS 8u
 #endif
-layout(set = 0, binding = 1) uniform sampler2D g_coords;          // st.xy, so.xy
-layout(set = 0, binding = 2) uniform sampler2D g_light;           // si.xy, marker
-layout(set = 0, binding = 3) uniform sampler2D g_light_weight;    // rgb: key light * shadow * tint * exposure
-layout(set = 0, binding = 4) uniform sampler2D g_ambient_weight;  // rgb: irradiance * tint * exposure
+layout(set = 0, binding = 1) uniform sampler2D g_coords;   // st.xy, so.xy
+layout(set = 0, binding = 2) uniform sampler2D g_light;    // si.xy, light weight .rg
+layout(set = 0, binding = 3) uniform sampler2D g_weights;  // light weight .b, ambient weight .rgb
+layout(set = 0, binding = 4) uniform sampler2D g_marker;   // r: marker
 layout(std430, set = 0, binding = 5) readonly buffer Counts { uint count[]; };
 layout(std430, set = 0, binding = 6) readonly buffer List { uint list[]; };
 layout(std430, set = 0, binding = 7) writeonly buffer Radiance { float radiance[]; };

@@ -8,9 +8,9 @@
 // pixel that needs no decode (both weights 0) gets 0 radiance here. The tile's lane 0 also
 // raises each class's indirect group count to cover the list's end.
 layout(local_size_x = 32) in;
-layout(set = 0, binding = 0) uniform sampler2D g_light;           // si.xy, marker (0: none; 2 * model + bilinear + 1)
-layout(set = 0, binding = 1) uniform sampler2D g_light_weight;    // rgb: key light * shadow * tint * exposure
-layout(set = 0, binding = 2) uniform sampler2D g_ambient_weight;  // rgb: irradiance * tint * exposure
+layout(set = 0, binding = 0) uniform sampler2D g_light;    // si.xy, light weight .rg
+layout(set = 0, binding = 1) uniform sampler2D g_weights;  // light weight .b, ambient weight .rgb
+layout(set = 0, binding = 2) uniform sampler2D g_marker;   // r: marker (0: none; 2 * model + bilinear + 1)
 layout(std430, set = 0, binding = 3) buffer Counts { uint count[]; };         // by model and class
 layout(std430, set = 0, binding = 4) buffer Groups { uvec4 groups[]; };       // by model and class: pad, x, y, z
 layout(std430, set = 0, binding = 5) writeonly buffer List { uint list[]; };  // pixel indices

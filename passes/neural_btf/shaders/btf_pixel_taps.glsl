@@ -4,7 +4,7 @@
 // 1: the ambient; corner 0..3 when bilinear, 0 when nearest), skipping a term whose weight is 0.
 // The decode adds a pixel's taps in increasing bit order, the fragment path's order. Its popcount
 // (1, 2, 4 or 8) is the pixel's class: how many decode rows it takes. The includer binds
-// g_light, g_light_weight and g_ambient_weight.
+// g_light, g_weights and g_marker (neural_btf_gbuffer.frag).
 #ifndef WEFT_BTF_PIXEL_TAPS_GLSL
 #define WEFT_BTF_PIXEL_TAPS_GLSL
 
@@ -12,14 +12,15 @@ const uint BTF_CLASSES = 4u;  // pixels of 1, 2, 4 and 8 taps
 
 // The model pixel px is marked with in the G-buffer, or ~0u where there is none.
 uint pixel_model(ivec2 px) {
-  uint marker = uint(texelFetch(g_light, px, 0).z + 0.5);
+  uint marker = uint(texelFetch(g_marker, px, 0).r + 0.5);
   return marker == 0u ? ~0u : (marker - 1u) >> 1;
 }
 
-bool pixel_bilinear(ivec2 px) { return ((uint(texelFetch(g_light, px, 0).z + 0.5) - 1u) & 1u) != 0u; }
+bool pixel_bilinear(ivec2 px) { return ((uint(texelFetch(g_marker, px, 0).r + 0.5) - 1u) & 1u) != 0u; }
 
 vec3 term_weight(ivec2 px, uint term) {
-  return term == 0u ? texelFetch(g_light_weight, px, 0).rgb : texelFetch(g_ambient_weight, px, 0).rgb;
+  vec4 weights = texelFetch(g_weights, px, 0);
+  return term == 0u ? vec3(texelFetch(g_light, px, 0).zw, weights.x) : weights.yzw;
 }
 
 uint pixel_tap_mask(ivec2 px) {

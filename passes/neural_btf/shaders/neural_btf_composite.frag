@@ -1,17 +1,21 @@
 #version 460
-// The batched path in an MSAA frame: the cloth drawn a second time, into the multisampled
-// scene colour and depth -- covered and depth-tested per sample -- and every pixel it covers
-// takes the radiance its one decode gave (shaded once per pixel, as MSAA shades). An edge
-// pixel whose centre the cloth missed has no decode of its own (the G-buffer is one sample
-// per pixel): it takes a marked neighbour's, the nearest one in its 3x3.
-layout(set = 1, binding = 0) uniform sampler2D g_light;  // z: marker, 0 where no neural BTF pixel
-layout(std430, set = 1, binding = 1) readonly buffer Radiance { float radiance[]; };  // rgb per pixel
+#extension GL_GOOGLE_include_directive : require
+// The batched path's last step: the cloth drawn a second time, into the scene colour and depth
+// -- depth-tested there (per sample in an MSAA frame) -- and every pixel it covers takes the
+// radiance its one decode gave (shaded once per pixel, as MSAA shades). The G-buffer covers
+// only the objects' rectangle, whose corner in the frame is draw.debug.zw. An edge pixel whose
+// centre the cloth missed has no decode of its own (the G-buffer is one sample per pixel): it
+// takes a marked neighbour's, the nearest one in its 3x3.
+#include "frame.glsl"
+#include "neural_btf_common.glsl"
+layout(set = 1, binding = 0) uniform sampler2D g_marker;  // r: marker, 0 where no neural BTF pixel
+layout(std430, set = 1, binding = 1) readonly buffer Radiance { float radiance[]; };  // rgb per G-buffer pixel
 layout(location = 0) out vec4 out_color;
 void main() {
-  ivec2 size = textureSize(g_light, 0);
-  ivec2 px = ivec2(gl_FragCoord.xy);
+  ivec2 size = textureSize(g_marker, 0);
+  ivec2 px = ivec2(gl_FragCoord.xy) - ivec2(draw.debug.zw);
   ivec2 found = ivec2(-1);
-  if (texelFetch(g_light, px, 0).z != 0.0) {
+  if (all(greaterThanEqual(px, ivec2(0))) && all(lessThan(px, size)) && texelFetch(g_marker, px, 0).r != 0.0) {
     found = px;
   } else {
     // The four edge neighbours first (nearer), then the corners.
@@ -19,7 +23,7 @@ void main() {
                                      ivec2(1, 1), ivec2(-1, 1), ivec2(1, -1), ivec2(-1, -1));
     for (int k = 0; k < 8; ++k) {
       ivec2 q = clamp(px + around[k], ivec2(0), size - 1);
-      if (texelFetch(g_light, q, 0).z != 0.0) {
+      if (texelFetch(g_marker, q, 0).r != 0.0) {
         found = q;
         break;
       }
