@@ -333,17 +333,23 @@ class ColorEffect {
 };
 
 // A temporal pass's GPU objects (accumulate, taa): `blend` draws this frame into the history
-// (rgba16float; `blend_textures` inputs), `output` per colour format (rgba8unorm, rgba16float)
-// writes the history back in the input's encoding (one texture), `sampler` bilinear and clamped.
+// (rgba16float; `blend_textures` inputs, `push_size` bytes of the pass's push constants),
+// `output` per colour format (rgba8unorm, rgba16float) writes the history back in the input's
+// encoding (shaders/temporal_output.frag, the same for every temporal pass), `sampler`
+// bilinear and clamped.
 struct TemporalPipelines {
   FullscreenPipeline blend;
   std::map<gpu::Format, FullscreenPipeline> output;
   gpu::Sampler sampler;
   static Result<std::shared_ptr<const TemporalPipelines>> create(gpu::Device& device, const std::string& label,
                                                                  std::span<const std::uint32_t> blend_spirv,
-                                                                 std::uint32_t blend_textures,
-                                                                 std::span<const std::uint32_t> output_spirv,
-                                                                 std::uint32_t push_size);
+                                                                 std::uint32_t blend_textures, std::uint32_t push_size);
+  // Whether `format` is one `output` writes.
+  [[nodiscard]] bool writes(gpu::Format format) const { return output.contains(format); }
+  // Pass `name`: `history` (what blend wrote) into `target` in `format`, display-encoded when
+  // it is rgba8unorm. `owner` keeps these pipelines alive while the graph needs them.
+  Result<TextureHandle> add_output(RenderGraph& graph, std::string name, TextureHandle history, TextureHandle target,
+                                   gpu::Format format, std::shared_ptr<const void> owner) const;
 };
 
 // The history of a temporal pass (accumulate, taa): two textures kept between frames, last

@@ -13,6 +13,7 @@ module;
 #include <utility>
 #include <vector>
 #include <weft/try.h>
+#include "weft_frame_shaders.h"
 module weft.frame;
 import weft.core;
 import weft.gpu;
@@ -92,17 +93,31 @@ Result<TextureHandle> add_fullscreen_pass(RenderGraph& graph, FullscreenPass p, 
 Result<std::shared_ptr<const TemporalPipelines>> TemporalPipelines::create(gpu::Device& device, const std::string& label,
                                                                            std::span<const std::uint32_t> blend_spirv,
                                                                            std::uint32_t blend_textures,
-                                                                           std::span<const std::uint32_t> output_spirv,
                                                                            std::uint32_t push_size) {
   WEFT_TRY(auto blend, create_fullscreen_pipeline(device, label, blend_spirv, blend_textures, false, push_size,
                                                   gpu::Format::RGBA16Float));
   std::map<gpu::Format, FullscreenPipeline> output;
   for (gpu::Format f : {gpu::Format::RGBA8Unorm, scene_color_format}) {
-    WEFT_TRY(auto p, create_fullscreen_pipeline(device, label + ".output", output_spirv, 1, false, push_size, f));
+    WEFT_TRY(auto p, create_fullscreen_pipeline(device, label + ".output", shaders::temporal_output_frag(), 1, false,
+                                                sizeof(std::uint32_t), f));
     output.emplace(f, std::move(p));
   }
   WEFT_TRY(auto sampler, device.create_sampler({.label = label, .max_lod = 0}));
   return std::make_shared<const TemporalPipelines>(TemporalPipelines{std::move(blend), std::move(output), std::move(sampler)});
+}
+
+Result<TextureHandle> TemporalPipelines::add_output(RenderGraph& graph, std::string name, TextureHandle history,
+                                                   TextureHandle target, gpu::Format format,
+                                                   std::shared_ptr<const void> owner) const {
+  const auto pipeline = output.find(format);
+  if (pipeline == output.end())
+    return fail(ErrorKind::Unsupported, "pass '{}': a temporal pass writes rgba8unorm or rgba16float colour, not {}", name,
+                gpu::format_info(format).name);
+  const std::uint32_t display_encoded = format == gpu::Format::RGBA8Unorm ? 1u : 0u;
+  const auto bytes = std::as_bytes(std::span(&display_encoded, 1));
+  return add_fullscreen_pass(graph, {.name = std::move(name), .inputs = {history}, .target = target, .format = format,
+                                     .push = std::vector<std::byte>(bytes.begin(), bytes.end())},
+                             pipeline->second, sampler, std::move(owner));
 }
 
 Result<bool> HistoryTextures::ensure(gpu::Device& device, std::string_view label, gpu::Extent3D size, gpu::Format format) {

@@ -104,6 +104,11 @@ struct Slot {
   // its sample count: frame::PipelineSamples). Otherwise the runner resolves a multisampled
   // texture (frame::add_resolve_pass, one per texture version) before the pass sees it.
   bool multisampled = false;
+  // Inputs: the formats the pass is made for among `formats`, and why. A connection that
+  // brings another of `formats` is allowed and warned about (pipeline warnings), e.g. FXAA
+  // on linear HDR colour: its thresholds are for display-encoded luma.
+  std::vector<gpu::Format> intended_formats;
+  std::string intended_why;
   std::string meaning;
 };
 
@@ -186,6 +191,9 @@ struct PassTypeDescriptor {
   // effect such as bloom), so it has no study.
   nlohmann::json reference = nlohmann::json::object();
   std::string reference_why;
+  // The pass blends frames over time (PassFrame::sample_index counts them): one frame alone
+  // shows only sample 0, which `weft render` says when it renders one (use --accumulate N).
+  bool temporal = false;
 };
 
 // The pass types of this process, in registration order. Thread-safe; descriptors live as

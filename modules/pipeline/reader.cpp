@@ -365,6 +365,19 @@ void check_frame(Reading& reading) {
                                                       "frame with a tonemap pass, and name other resources after it)",
                                                       p.outputs.front().text(), gpu::to_string(*format)));
   }
+  // An input that gets an accepted format its pass is not made for (Slot::intended_formats).
+  for (const auto& pass : p.passes)
+    for (const Slot& slot : pass.type->inputs) {
+      if (slot.intended_formats.empty()) continue;
+      const auto from = p.source_of(SlotRef{pass.name, slot.name});
+      const auto format = from ? p.format_of(*from) : std::nullopt;
+      if (!format || std::find(slot.intended_formats.begin(), slot.intended_formats.end(), *format) !=
+                         slot.intended_formats.end())
+        continue;
+      p.warnings.push_back(weft::format("{}: {}: pass '{}' ({}) gets {} from '{}' in its input '{}': {}", p.source,
+                                        reading.pass_path.at(pass.name), pass.name, pass.type->name,
+                                        gpu::to_string(*format), from->text(), slot.name, slot.intended_why));
+    }
   // Passes from which no output can be reached are culled by the graph: say so now.
   std::set<std::string> reaches;
   for (const auto& o : p.outputs) reaches.insert(o.pass);
@@ -486,6 +499,8 @@ std::string pass_types_markdown() {
     if (formats.empty()) formats = "any format";
     std::string size = s.same_as.empty() ? (s.size == SlotSize::Frame ? "frame size" : "any size") : "";
     std::string extra = input && s.optional ? ", optional" : "";
+    if (input && !s.intended_formats.empty())
+      extra += weft::format(", made for {} (other formats warn)", formats_text(s.intended_formats));
     return weft::format("`{}` ({}{}{}){}", s.name, formats, size.empty() ? "" : ", " + size, extra,
                         s.meaning.empty() ? "" : ": " + s.meaning);
   };
@@ -496,6 +511,9 @@ std::string pass_types_markdown() {
     for (std::size_t i = 0; i < d->inputs.size(); ++i) out += (i ? "; " : "") + slot_text(d->inputs[i], true);
     out += "\n- outputs: ";
     for (std::size_t i = 0; i < d->outputs.size(); ++i) out += (i ? "; " : "") + slot_text(d->outputs[i], false);
+    if (d->temporal)
+      out += "\n- temporal: blends frames over time; a single frame (`weft render` without `--accumulate N`) shows "
+             "sample 0 only";
     out += "\n\n";
     if (!d->options.empty()) {
       out += "| option | values | default | meaning |\n|:--|:--|:--|:--|\n";

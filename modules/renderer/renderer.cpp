@@ -768,6 +768,10 @@ image::Image8 picture(const Readback& r) {
   return out;
 }
 
+Result<const pipeline::Pipeline*> Renderer::pipeline_for(const scene::Scene& scene, const RenderOptions& options) {
+  return state_->choose_pipeline(scene, options);
+}
+
 Result<Frame> Renderer::render(const scene::Scene& scene, const RenderOptions& options) {
   auto size = frame_size(scene, options);
   if (!size) return std::unexpected(size.error());

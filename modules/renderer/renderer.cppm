@@ -111,6 +111,10 @@ class Renderer {
   // test kit's expectations on order, barriers and memory) before the report is made.
   Result<GraphReport> describe(const scene::Scene& scene, const RenderOptions& options = {},
                                const std::function<void(const CompiledGraph&)>& inspect = {});
+  // The pipeline render() uses for `scene` with `options`: options.pipeline, else the options'
+  // or the scene's pipeline file (read again only when its modification time changed), else
+  // the default pipeline. Valid until the next call that re-reads the same file.
+  Result<const pipeline::Pipeline*> pipeline_for(const scene::Scene& scene, const RenderOptions& options = {});
 
   // How many times each cache did real work (tests assert the second frame does none).
   struct CacheStats {

@@ -37,8 +37,7 @@ class AccumulateFramePass final : public pipeline::FramePass {
 
   Result<void> prepare(gpu::Device& device, const pipeline::PassFrame&) override {
     if (gpu_) return {};
-    WEFT_TRY(gpu_, frame::TemporalPipelines::create(device, "accumulate", shaders::accumulate_frag(), 2, shaders::accumulate_output_frag(),
-                                                   sizeof(Push)));
+    WEFT_TRY(gpu_, frame::TemporalPipelines::create(device, "accumulate", shaders::accumulate_frag(), 2, sizeof(Push)));
     device_ = &device;
     return {};
   }
@@ -48,7 +47,7 @@ class AccumulateFramePass final : public pipeline::FramePass {
     if (!gpu_) return fail(ErrorKind::Internal, "pass '{}': add() before prepare()", name);
     const TextureHandle color = slots.input("color");
     const auto desc = graph.texture_desc(color);
-    if (!desc || !gpu_->output.contains(desc->format))
+    if (!desc || !gpu_->writes(desc->format))
       return fail(ErrorKind::Unsupported, "pass '{}': input 'color' must be rgba8unorm or rgba16float", name);
     const gpu::Extent3D size = desc->size.resolve({frame.width, frame.height, 1});
 
@@ -70,10 +69,7 @@ class AccumulateFramePass final : public pipeline::FramePass {
                                                 .format = history_format, .push = push_bytes},
                                         gpu_->blend, gpu_->sampler, gpu_));
     graph.mark_output(blended, gpu::Access::ShaderRead);
-    WEFT_TRY(const TextureHandle out,
-             frame::add_fullscreen_pass(graph, {.name = name + ".output", .inputs = {blended}, .target = slots.target("color"),
-                                                .format = desc->format, .push = push_bytes},
-                                        gpu_->output.at(desc->format), gpu_->sampler, gpu_));
+    WEFT_TRY(const TextureHandle out, gpu_->add_output(graph, name + ".output", blended, slots.target("color"), desc->format, gpu_));
     slots.set_output("color", out);
     return {};
   }
@@ -108,6 +104,7 @@ const pipeline::PassTypeDescriptor& accumulate_pass_type() {
                                            "of about this many (1: no accumulation)",
                                            {1, 4, 16, 64})},
       .create = &create,
+      .temporal = true,
   };
   return d;
 }

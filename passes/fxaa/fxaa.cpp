@@ -62,6 +62,9 @@ const pipeline::PassTypeDescriptor& fxaa_pass_type() {
                  "contrast are blended across by their distance to the edge's end.",
       .doc = "docs/pipelines.md#fxaa",
       .inputs = {{.name = "color", .formats = {gpu::Format::RGBA8Unorm, frame::scene_color_format},
+                  .intended_formats = {gpu::Format::RGBA8Unorm},
+                  .intended_why = "FXAA's contrast thresholds are for display-encoded luma: on linear HDR colour it "
+                                  "misses edges in the dark and smooths bright ones too much; put it after the tonemap",
                   .meaning = "the display-encoded colour (after the tone map)"}},
       .outputs = {{.name = "color", .same_as = "color", .meaning = "the colour with its edges smoothed"}},
       .options = {pipeline::number_option("threshold", 0.0, 1.0, 0.125,

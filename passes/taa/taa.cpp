@@ -41,7 +41,7 @@ class TaaFramePass final : public pipeline::FramePass {
 
   Result<void> prepare(gpu::Device& device, const pipeline::PassFrame&) override {
     if (gpu_) return {};
-    WEFT_TRY(gpu_, frame::TemporalPipelines::create(device, "taa", shaders::taa_frag(), 3, shaders::taa_output_frag(),
+    WEFT_TRY(gpu_, frame::TemporalPipelines::create(device, "taa", shaders::taa_frag(), 3,
                                                    sizeof(Push)));
     device_ = &device;
     return {};
@@ -52,7 +52,7 @@ class TaaFramePass final : public pipeline::FramePass {
     if (!gpu_) return fail(ErrorKind::Internal, "pass '{}': add() before prepare()", name);
     const TextureHandle color = slots.input("color"), depth = slots.input("depth");
     const auto desc = graph.texture_desc(color);
-    if (!desc || !gpu_->output.contains(desc->format))
+    if (!desc || !gpu_->writes(desc->format))
       return fail(ErrorKind::Unsupported, "pass '{}': input 'color' must be rgba8unorm or rgba16float", name);
     const gpu::Extent3D size = desc->size.resolve({frame.width, frame.height, 1});
     WEFT_TRY(const bool fresh, history_.ensure(*device_, name, size, history_format));
@@ -77,10 +77,7 @@ class TaaFramePass final : public pipeline::FramePass {
                                                 .format = history_format, .push = push_bytes},
                                         gpu_->blend, gpu_->sampler, gpu_));
     graph.mark_output(blended, gpu::Access::ShaderRead);
-    WEFT_TRY(const TextureHandle out,
-             frame::add_fullscreen_pass(graph, {.name = name + ".output", .inputs = {blended}, .target = slots.target("color"),
-                                                .format = desc->format, .push = push_bytes},
-                                        gpu_->output.at(desc->format), gpu_->sampler, gpu_));
+    WEFT_TRY(const TextureHandle out, gpu_->add_output(graph, name + ".output", blended, slots.target("color"), desc->format, gpu_));
     slots.set_output("color", out);
     ++frames_;
     last_view_projection_ = view_projection;
@@ -121,6 +118,7 @@ const pipeline::PassTypeDescriptor& taa_pass_type() {
                                            "clamp the history to the current 3x3 neighbourhood (no ghosting where the "
                                            "view changed; off: a still view converges further)")},
       .create = &create,
+      .temporal = true,
   };
   return d;
 }

@@ -76,6 +76,28 @@ TEST_CASE("bad input: missing scene, malformed JSON, unknown field, unwritable o
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("weft render of a temporal pipeline in one frame says it shows sample 0 only; --accumulate does not") {
+  const char* source = std::getenv("WEFT_SOURCE_DIR");
+  REQUIRE(source);
+  const auto dir = temp_dir();
+  std::ofstream(dir / "s.json") << scene;
+  const std::string base = cli + " render " + (dir / "s.json").string() + " --size 32x18 -o " + (dir / "x.png").string();
+  const std::string taa = std::string(source) + "/examples/pipelines/taa.json";
+  const std::string accumulate = std::string(source) + "/examples/pipelines/accumulate.json";
+  const auto one = run_command(base + " --pipeline " + taa);
+  CHECK_MESSAGE(one.exit_code == 0, one.output);
+  CHECK_MESSAGE(contains(one.output, "the pipeline's 'taa' (taa) blends frames over time, and one frame shows sample 0 "
+                                     "only: render with --accumulate N"),
+                one.output);
+  const auto several = run_command(base + " --pipeline " + accumulate + " --accumulate 3");
+  CHECK_MESSAGE(several.exit_code == 0, several.output);
+  CHECK_FALSE(contains(several.output, "blends frames over time"));
+  const auto plain = run_command(base);
+  CHECK_MESSAGE(plain.exit_code == 0, plain.output);
+  CHECK_FALSE(contains(plain.output, "blends frames over time"));
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("weft graph prints the passes and writes DOT") {
   const auto dir = temp_dir();
   std::ofstream(dir / "s.json") << scene;

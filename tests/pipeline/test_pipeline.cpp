@@ -70,6 +70,26 @@ TEST_CASE("file order is kept where connections leave it free; connections decid
   CHECK(p->warnings[0] == "order.json: $.passes.shadow_b: pass 'shadow_b' reaches no output; it is culled");
 }
 
+TEST_CASE("a pass given an accepted format it is not made for is warned about: FXAA on linear HDR colour") {
+  const char* text = R"({
+    "passes": {"scene": {"type": "scene_color"}, "background": {"type": "background"}, "fxaa": {"type": "fxaa"},
+               "tonemap": {"type": "tonemap"}, "after": {"type": "fxaa"}},
+    "connections": ["scene.color -> background.color", "scene.depth -> background.depth",
+                    "background.color -> fxaa.color", "fxaa.color -> tonemap.color", "tonemap.color -> after.color"],
+    "outputs": ["after.color"]})";
+  auto p = pipeline::parse_pipeline(text, "fxaa_hdr.json");
+  REQUIRE_MESSAGE(p, (p ? "" : p.error().message));
+  REQUIRE(p->warnings.size() == 1);  // the fxaa after the tonemap gets what it is made for
+  CHECK(p->warnings[0] ==
+        "fxaa_hdr.json: $.passes.fxaa: pass 'fxaa' (fxaa) gets rgba16float from 'background.color' in its input 'color': "
+        "FXAA's contrast thresholds are for display-encoded luma: on linear HDR colour it misses edges in the dark and "
+        "smooths bright ones too much; put it after the tonemap");
+  // The temporal pass types say so in their descriptors (weft render warns about one frame).
+  CHECK(pipeline::pass_type_registry().find("taa")->temporal);
+  CHECK(pipeline::pass_type_registry().find("accumulate")->temporal);
+  CHECK_FALSE(pipeline::pass_type_registry().find("fxaa")->temporal);
+}
+
 TEST_CASE("to_json writes a file that reads back to the same pipeline") {
   auto p = pipeline::parse_pipeline(R"({"description": "d",
     "passes": {"scene": {"type": "scene_color", "options": {"clear": 0.25}},

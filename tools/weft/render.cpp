@@ -250,21 +250,28 @@ Command add_render(CLI::App& app) {
     if (!r) return fail_with("render", r.error());
     log::info(weft::format("rendering on {}", session->adapter.info().name));
     if (*budget_ms > 0.0) return render_within_budget(*r, *scene, *options, *budget_ms, *output, *kind, *exposure);
+    // The pipeline's passes that blend frames over time (accumulate, taa: PassTypeDescriptor::temporal).
+    auto chosen = r->pipeline_for(*scene, *options);
+    if (!chosen) return fail_with("render", chosen.error());
+    std::string temporal;
+    bool has_accumulate = false;
+    for (const auto& pass : (*chosen)->passes) {
+      if (!pass.type || !pass.type->temporal) continue;
+      temporal += weft::format("{}'{}' ({})", temporal.empty() ? "" : ", ", pass.name, pass.type->name);
+      has_accumulate |= pass.type->name == "accumulate";
+    }
     if (*accumulate > 0) {
       if (*frames > 1)
         return fail_with("render", Error{ErrorKind::InvalidArgument, "--accumulate and --frames cannot be combined"});
       // Jittered samples that nothing averages would only move the image: say so before rendering.
-      auto report = r->describe(*scene, *options);
-      if (!report) return fail_with("render", report.error());
-      const auto pipeline_json = nlohmann::json::parse(report->pipeline, nullptr, false);
-      bool has_accumulate = false;
-      if (pipeline_json.is_object() && pipeline_json.contains("passes") && pipeline_json["passes"].is_object())
-        for (const auto& [pass_name, pass] : pipeline_json["passes"].items())
-          has_accumulate |= pass.is_object() && pass.value("type", "") == "accumulate";
       if (!has_accumulate)
         return fail_with("render", Error{ErrorKind::InvalidArgument,
                                          "--accumulate: the pipeline has no pass of type 'accumulate' to average the "
                                          "samples (--pipeline examples/pipelines/accumulate.json has one)"});
+    } else if (!temporal.empty() && *frames == 1) {
+      log::warn(weft::format("the pipeline's {} blend{} frames over time, and one frame shows sample 0 only: "
+                             "render with --accumulate N to see them converge",
+                             temporal, temporal.find(',') == std::string::npos ? "s" : ""));
     }
     auto frame = r->render(*scene, *options);
     if (!frame) return fail_with("render", frame.error());

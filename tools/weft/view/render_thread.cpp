@@ -15,6 +15,7 @@ module;
 #include <string>
 #include <string_view>
 #include <thread>
+#include <weft/try.h>
 #include <utility>
 #include <vector>
 #include <nlohmann/json.hpp>
@@ -29,11 +30,13 @@ namespace weft::viewer::detail {
 namespace {
 
 // The pipeline a job renders with: the edited one, its file, the scene's, or the default.
-Result<pipeline::Pipeline> job_pipeline(const RenderJob& job, const scene::Scene& scene) {
-  if (job.pipeline) return *job.pipeline;
-  const std::filesystem::path& file = job.pipeline_file.empty() ? scene.pipeline : job.pipeline_file;
-  if (!file.empty()) return pipeline::load_pipeline(file);
-  return pipeline::default_pipeline();
+// The job's pipeline as the renderer chooses it (its file read again only when it changed).
+Result<pipeline::Pipeline> job_pipeline(renderer::Renderer& renderer, const RenderJob& job, const scene::Scene& scene) {
+  renderer::RenderOptions options;
+  options.pipeline = job.pipeline.get();
+  options.pipeline_file = job.pipeline_file;
+  WEFT_TRY(const pipeline::Pipeline* chosen, renderer.pipeline_for(scene, options));
+  return *chosen;
 }
 
 // `base` with an accumulate pass ("refine") after the frame's image, averaging `samples`
@@ -147,7 +150,7 @@ Result<SceneRenderer> SceneRenderer::start(const gpu::Adapter& adapter, gpu::Dev
       // A still view refining: through a pipeline that averages the jittered samples, made
       // again only when what it is made from changed (an edit, a reload of the file).
       if (job.refine_samples > 1 && !job.reference && job.budget_ms <= 0.0) {
-        auto base = job_pipeline(job, scene);
+        auto base = job_pipeline(*made, job, scene);
         if (!base) {
           post({.id = job.id, .moving = job.moving, .reference = job.reference, .error = base.error().what()});
           continue;

@@ -14,7 +14,7 @@
 #pragma once
 #include <cstdint>
 
-#define WEFT_PLUGIN_ABI_VERSION 3u
+#define WEFT_PLUGIN_ABI_VERSION 4u
 
 #define WEFT_PLUGIN(register_function)                                                              \
   extern "C" __attribute__((visibility("default"))) std::uint32_t weft_plugin_abi_version() {      \

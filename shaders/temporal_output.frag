@@ -1,9 +1,10 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// The accumulated (linear) history back in the input's encoding.
+// A temporal pass's (linear) history back in its input's encoding (weft.frame's
+// TemporalPipelines, for accumulate and taa): 8-bit colour targets are display-encoded.
 #include "frame.glsl"
 layout(set = 0, binding = 0) uniform sampler2D history;
-layout(push_constant) uniform Settings { float weight; uint display_encoded; } settings;
+layout(push_constant) uniform Settings { uint display_encoded; } settings;
 layout(location = 0) out vec4 out_color;
 
 void main() {
