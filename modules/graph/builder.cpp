@@ -105,10 +105,13 @@ void add_error(GraphData& g, GraphErrorKind kind, std::string message, std::vect
 
 // The state one pass's two declarations of one resource combine into, if they can: a pass
 // is in one state per resource, because a barrier moves a whole resource to one state.
-std::optional<gpu::Access> merge_access(gpu::Access a, gpu::Access b) {
+std::optional<gpu::Access> merge_access(gpu::Access a, gpu::Access b, ResourceType type) {
   using A = gpu::Access;
   if (a == b) return a;
   auto either = [&](A x, A y) { return (a == x && b == y) || (a == y && b == x); };
+  // A buffer has no layout: a copy between two ranges of one buffer is one transfer state,
+  // whose barrier covers the reads and the writes (CopyDst waits for and makes visible both).
+  if (type == ResourceType::Buffer && either(A::CopySrc, A::CopyDst)) return A::CopyDst;
   if (either(A::StorageRead, A::StorageWrite)) return A::StorageWrite;
   if (either(A::DepthRead, A::DepthAttachment)) return A::DepthAttachment;
   if (either(A::ShaderRead, A::DepthRead)) return A::DepthRead;  // same layout; DepthRead covers shaders
@@ -197,7 +200,7 @@ std::uint32_t declare_any(GraphData& g, std::uint32_t pass, ResourceType type, s
     if (existing.resource != resource) continue;
     const bool same_input = slot == existing.slot;
     const bool own_output = existing.writes() && slot == existing.out_slot;
-    const auto merged = merge_access(existing.access, access);
+    const auto merged = merge_access(existing.access, access, type);
     if ((!same_input && !own_output) || !merged) {
       report_conflict(g, pass, type, resource, existing, version, use, merged.has_value());
       return version;

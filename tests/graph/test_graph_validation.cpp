@@ -643,6 +643,35 @@ TEST_SUITE("graph errors") {
           "two); one texture per mip or layer where they are used apart");
   }
 
+  TEST_CASE("a copy within one buffer is one transfer state; within one texture it is still refused (two layouts)") {
+    RenderGraph graph;
+    BufferHandle buffer;
+    TextureHandle texture;
+    graph.add_pass("init", [&](PassBuilder& b) {
+      buffer = b.write(b.create_buffer("b", {.size = 256}), BufferUse::CopyDst);
+      texture = b.write(b.create_texture("t", color_desc()), TextureUse::CopyDst);
+    });
+    graph.add_pass("within", [&](PassBuilder& b) {
+      buffer = b.write(b.read(buffer, BufferUse::CopySrc), BufferUse::CopyDst);
+      b.side_effect();
+    });
+    auto compiled = graph.compile(options);
+    REQUIRE_MESSAGE(compiled, compiled.error().to_string());
+    const auto p = compiled->find_pass("within");
+    REQUIRE(p);
+    bool to_copy_dst = false;
+    for (const PlannedBarrier& barrier : compiled->barriers_before(*p))
+      to_copy_dst |= barrier.after == gpu::Access::CopyDst;
+    CHECK(to_copy_dst);
+    graph.add_pass("texture_within", [&](PassBuilder& b) {
+      (void)b.write(b.read(texture, TextureUse::CopySrc), TextureUse::CopyDst);
+      b.side_effect();
+    });
+    auto refused = graph.compile(options);
+    REQUIRE_FALSE(refused);
+    CHECK(only_error(refused.error()).kind == GraphErrorKind::ConflictingUsage);
+  }
+
   TEST_CASE("a write usage passed to read()") {
     RenderGraph graph;
     TextureHandle t;
