@@ -2,8 +2,9 @@
 # weft's two front doors, for a fresh Debian 12 machine (as root) or a developer's:
 #   ./weft.sh demo [args...]   install what is missing, build, render examples/scenes/showcase.json to out/demo.png
 #                              (extra args go to `weft render`, e.g. --size 640x360 --quality high)
-#   ./weft.sh test [--asan]    install what is missing, build, run every test suite (ctest)
-#   ./weft.sh build [--asan]   install what is missing and build only
+#   ./weft.sh test [--asan|--tsan]   install what is missing, build, run every test suite (ctest);
+#                              --asan: ASan + UBSan in build/asan, --tsan: ThreadSanitizer in build/tsan
+#   ./weft.sh build [--asan|--tsan]  install what is missing and build only
 #   ./weft.sh fuzz [--seconds N] [--runs N] [HARNESS...]
 #                              build the libFuzzer harnesses (preset fuzz, tests/fuzz) and run each
 #                              for N seconds (default 60) or N executions from its seed corpus
@@ -20,6 +21,7 @@ preset=default
 for arg in "$@"; do
   case "$arg" in
     --asan) preset=asan ;;
+    --tsan) preset=tsan ;;
   esac
 done
 
@@ -39,9 +41,9 @@ case "$command_name" in
     build
     mkdir -p out
     args=()
-    for arg in "$@"; do [ "$arg" != "--asan" ] && args+=("$arg"); done
+    for arg in "$@"; do [ "$arg" != "--asan" ] && [ "$arg" != "--tsan" ] && args+=("$arg"); done
     bin=build/bin
-    [ "$preset" = asan ] && bin=build/asan/bin
+    [ "$preset" != default ] && bin=build/$preset/bin
     "$bin/weft" render examples/scenes/showcase.json -o out/demo.png --profile "${args[@]+"${args[@]}"}"
     echo "demo: wrote $(pwd)/out/demo.png"
     ;;
@@ -95,7 +97,7 @@ case "$command_name" in
     exit $status
     ;;
   *)
-    echo "usage: ./weft.sh demo | test [--asan] | build [--asan] | fuzz [--seconds N] [--runs N] [HARNESS...]" >&2
+    echo "usage: ./weft.sh demo | test [--asan|--tsan] | build [--asan|--tsan] | fuzz [--seconds N] [--runs N] [HARNESS...]" >&2
     exit 2
     ;;
 esac
