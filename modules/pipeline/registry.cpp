@@ -153,6 +153,10 @@ std::string check_descriptor(const PassTypeDescriptor& d) {
     for (const auto& slot : *list) {
       if (!identifier(slot.name)) return weft::format("pass type '{}': slot name '{}' must be letters, digits and '_'", d.name, slot.name);
       if (!seen.insert(slot.name).second) return weft::format("pass type '{}': slot '{}' is declared twice", d.name, slot.name);
+      for (const gpu::Format f : slot.intended_formats)
+        if (std::find(slot.formats.begin(), slot.formats.end(), f) == slot.formats.end())
+          return weft::format("pass type '{}': slot '{}' is made for {}, which it does not accept (intended_formats "
+                              "must be some of its formats)", d.name, slot.name, gpu::to_string(f));
     }
   }
   std::set<std::string> seen;

@@ -182,6 +182,13 @@ TEST_CASE("the registry refuses bad and colliding descriptors, and takes the sam
   auto bad_name = d;
   bad_name.name = "has.dot";
   CHECK(!registry.add(bad_name));
+  auto bad_intent = d;
+  bad_intent.name = "test_bad_intent";
+  bad_intent.inputs.at(0).formats = {gpu::Format::RGBA16Float};
+  bad_intent.inputs.at(0).intended_formats = {gpu::Format::RGBA8Unorm};
+  const auto intent_refused = registry.add(bad_intent);
+  REQUIRE_FALSE(intent_refused);
+  CHECK(intent_refused.error().message.find("made for rgba8unorm, which it does not accept") != std::string::npos);
   CHECK(registry.find("test_bad_default") == nullptr);
 }
 
