@@ -141,7 +141,17 @@ void CommandEncoder::barrier(std::span<const TextureBarrier> textures, std::span
     m.newLayout = dst.layout;
     m.srcQueueFamilyIndex = m.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     m.image = b.texture->image_;
-    m.subresourceRange = {aspect_of(b.texture->format()), 0, VK_REMAINING_MIP_LEVELS, 0, VK_REMAINING_ARRAY_LAYERS};
+    const TextureRange& r = b.range;
+    if (r != TextureRange{} && !r.fits(b.texture->descriptor().mip_level_count, b.texture->layer_count())) {
+      report_error({ErrorKind::InvalidArgument,
+                    weft::format("barrier on texture '{}': {} is not part of it ({} mips, {} layers)",
+                                 b.texture->label(), describe(r), b.texture->descriptor().mip_level_count,
+                                 b.texture->layer_count())});
+      continue;
+    }
+    m.subresourceRange = {aspect_of(b.texture->format()), r.base_mip,
+                          r.mip_count == TextureRange::remaining ? VK_REMAINING_MIP_LEVELS : r.mip_count, r.base_layer,
+                          r.layer_count == TextureRange::remaining ? VK_REMAINING_ARRAY_LAYERS : r.layer_count};
     images[image_count++] = m;
     b.texture->state_ = b.after;
   }
@@ -236,6 +246,11 @@ void CommandEncoder::fill_buffer(const Buffer& buffer, std::uint32_t value, std:
 }
 
 void CommandEncoder::blit_texture(const Texture& src, const Texture& dst, FilterMode filter) {
+  blit_texture(src, 0, dst, 0, filter);
+}
+
+void CommandEncoder::blit_texture(const Texture& src, std::uint32_t src_mip, const Texture& dst, std::uint32_t dst_mip,
+                                  FilterMode filter) {
   if (!check_outside_pass("blit_texture")) return;
   auto bad = [&](std::string message) { report_error({ErrorKind::InvalidArgument, std::move(message)}); };
   if (!has(src.usage(), TextureUsage::CopySrc))
@@ -248,11 +263,23 @@ void CommandEncoder::blit_texture(const Texture& src, const Texture& dst, Filter
     return bad(weft::format("blit from '{}' ({} samples) to '{}' ({} samples): multisampled textures are resolved, "
                             "not blitted (ColorAttachment::resolve_target)",
                             src.label(), src.sample_count(), dst.label(), dst.sample_count()));
+  if (src_mip >= src.descriptor().mip_level_count || dst_mip >= dst.descriptor().mip_level_count)
+    return bad(weft::format("blit from mip {} of '{}' ({} mips) to mip {} of '{}' ({} mips): no such mip", src_mip,
+                            src.label(), src.descriptor().mip_level_count, dst_mip, dst.label(),
+                            dst.descriptor().mip_level_count));
+  if (&src == &dst && src_mip == dst_mip)
+    return bad(weft::format("blit of mip {} of '{}' onto itself: a blit reads one mip and writes another", src_mip,
+                            src.label()));
+  if (src.layer_count() != dst.layer_count())
+    return bad(weft::format("blit from '{}' ({} layers) to '{}' ({} layers): every layer is blitted, so the counts "
+                            "must match",
+                            src.label(), src.layer_count(), dst.label(), dst.layer_count()));
+  const VkExtent3D from = mip_extent(src, src_mip), to = mip_extent(dst, dst_mip);
   VkImageBlit2 region{VK_STRUCTURE_TYPE_IMAGE_BLIT_2};
-  region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-  region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-  region.srcOffsets[1] = {std::int32_t(src.size().width), std::int32_t(src.size().height), 1};
-  region.dstOffsets[1] = {std::int32_t(dst.size().width), std::int32_t(dst.size().height), 1};
+  region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, src_mip, 0, src.layer_count()};
+  region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, dst_mip, 0, dst.layer_count()};
+  region.srcOffsets[1] = {std::int32_t(from.width), std::int32_t(from.height), 1};
+  region.dstOffsets[1] = {std::int32_t(to.width), std::int32_t(to.height), 1};
   VkBlitImageInfo2 info{VK_STRUCTURE_TYPE_BLIT_IMAGE_INFO_2};
   info.srcImage = src.image_;
   info.srcImageLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;

@@ -130,6 +130,28 @@ std::string_view to_string(Access a) {
   return "?";
 }
 
+std::string describe(const TextureRange& r) {
+  auto span = [](const char* one, const char* many, std::uint32_t base, std::uint32_t count) {
+    if (count == 1) return weft::format("{} {}", one, base);
+    if (count == TextureRange::remaining) return base == 0 ? weft::format("every {}", one) : weft::format("{} {} on", many, base);
+    return weft::format("{} {}-{}", many, base, base + count - 1);
+  };
+  if (r == TextureRange{}) return "the whole texture";
+  const bool all_mips = r.base_mip == 0 && r.mip_count == TextureRange::remaining;
+  const bool all_layers = r.base_layer == 0 && r.layer_count == TextureRange::remaining;
+  if (all_layers) return span("mip", "mips", r.base_mip, r.mip_count);
+  if (all_mips) return span("layer", "layers", r.base_layer, r.layer_count);
+  return weft::format("{} of {}", span("mip", "mips", r.base_mip, r.mip_count),
+                      span("layer", "layers", r.base_layer, r.layer_count));
+}
+
+std::string describe(const TextureRange& r, std::uint32_t mips, std::uint32_t layers) {
+  TextureRange shown = r;
+  if (r.base_mip == 0 && r.mips_of(mips) >= mips) shown.mip_count = TextureRange::remaining;
+  if (r.base_layer == 0 && r.layers_of(layers) >= layers) shown.layer_count = TextureRange::remaining;
+  return describe(shown);
+}
+
 std::string_view to_string(AdapterType t) {
   switch (t) {
     case AdapterType::DiscreteGpu: return "discrete GPU";

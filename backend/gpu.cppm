@@ -100,6 +100,44 @@ struct Extent3D {
   friend bool operator==(const Extent3D&, const Extent3D&) = default;
 };
 
+// A block of a texture's subresources: mips [base_mip, base_mip + mip_count) of layers
+// [base_layer, base_layer + layer_count) (a cube's faces are its six layers); a count of
+// `remaining` runs to the last mip or layer, so the default range is the whole texture.
+// Vulkan's VkImageSubresourceRange and wgpu's ImageSubresourceRange, without the aspect.
+struct TextureRange {
+  static constexpr std::uint32_t remaining = ~0u;
+  std::uint32_t base_mip = 0, mip_count = remaining;
+  std::uint32_t base_layer = 0, layer_count = remaining;
+
+  static constexpr TextureRange whole() { return {}; }
+  static constexpr TextureRange mip(std::uint32_t m) { return {m, 1, 0, remaining}; }
+  static constexpr TextureRange mips(std::uint32_t base, std::uint32_t count) { return {base, count, 0, remaining}; }
+  static constexpr TextureRange layer(std::uint32_t l) { return {0, remaining, l, 1}; }
+  static constexpr TextureRange layers(std::uint32_t base, std::uint32_t count) { return {0, remaining, base, count}; }
+  // One mip of one layer (a face of a cube's mip).
+  static constexpr TextureRange at(std::uint32_t mip, std::uint32_t layer) { return {mip, 1, layer, 1}; }
+  // The counts with `remaining` replaced, for a texture of `mips` mips and `layers` layers.
+  [[nodiscard]] constexpr std::uint32_t mips_of(std::uint32_t mips) const {
+    return mip_count == remaining ? (base_mip < mips ? mips - base_mip : 0) : mip_count;
+  }
+  [[nodiscard]] constexpr std::uint32_t layers_of(std::uint32_t layers) const {
+    return layer_count == remaining ? (base_layer < layers ? layers - base_layer : 0) : layer_count;
+  }
+  // Whether the range names at least one subresource and none past the texture's last.
+  [[nodiscard]] constexpr bool fits(std::uint32_t mips, std::uint32_t layers) const {
+    const std::uint64_t m = mips_of(mips), l = layers_of(layers);
+    return m > 0 && l > 0 && base_mip + m <= mips && base_layer + l <= layers;
+  }
+  [[nodiscard]] constexpr bool covers(std::uint32_t mips, std::uint32_t layers) const {
+    return base_mip == 0 && base_layer == 0 && mips_of(mips) >= mips && layers_of(layers) >= layers;
+  }
+  friend constexpr bool operator==(const TextureRange&, const TextureRange&) = default;
+};
+// "mip 1", "mips 1-3 of layer 2", "the whole texture" (for errors); given the texture's
+// counts, a range over all its layers (or mips) says so by leaving them out.
+std::string describe(const TextureRange& range);
+std::string describe(const TextureRange& range, std::uint32_t mips, std::uint32_t layers);
+
 // ---- adapter -------------------------------------------------------------------------
 enum class AdapterType : std::uint8_t { DiscreteGpu, IntegratedGpu, VirtualGpu, Cpu, Other };
 std::string_view to_string(AdapterType type);
@@ -328,6 +366,8 @@ class TextureView {
   [[nodiscard]] const Texture& texture() const { return *texture_; }
   [[nodiscard]] std::uint32_t base_mip() const { return base_mip_; }
   [[nodiscard]] std::uint32_t mip_count() const { return mip_count_; }
+  [[nodiscard]] std::uint32_t base_layer() const { return base_layer_; }
+  [[nodiscard]] std::uint32_t layer_count() const { return layer_count_; }
 
  private:
   TextureView() = default;
@@ -335,15 +375,21 @@ class TextureView {
   VkImageView view_ = VK_NULL_HANDLE;
   const Texture* texture_ = nullptr;
   std::uint32_t base_mip_ = 0, mip_count_ = 1;
+  std::uint32_t base_layer_ = 0, layer_count_ = 1;
   friend class Device;
   friend class Texture;
   friend class RenderPassEncoder;
   friend class CommandEncoder;
 };
 
+// A view of mips [base_mip, base_mip + mip_count) of layers [base_layer, base_layer +
+// layer_count). Its type follows from the layers it sees: one layer of an array or a cube is
+// a 2D view (a face to render into), several an array, all six of a cube a cube.
 struct TextureViewDescriptor {
   std::uint32_t base_mip = 0;
   std::uint32_t mip_count = 1;
+  std::uint32_t base_layer = 0;
+  std::uint32_t layer_count = TextureRange::remaining;
 };
 
 class Texture {
@@ -357,11 +403,15 @@ class Texture {
   [[nodiscard]] Format format() const { return desc_.format; }
   [[nodiscard]] TextureUsage usage() const { return desc_.usage; }
   [[nodiscard]] std::uint32_t sample_count() const { return desc_.sample_count; }
+  [[nodiscard]] std::uint32_t layer_count() const {
+    return desc_.dimension == TextureDimension::D3 ? 1 : desc_.size.depth_or_layers;
+  }
   // The view of every mip and layer, created with the texture (an empty view when the
   // texture can only be copied: Vulkan allows no views of such images).
   [[nodiscard]] const TextureView& view() const { return *default_view_; }
   Result<TextureView> create_view(const TextureViewDescriptor& desc) const;
-  // The state the last recorded barrier left it in (for CommandEncoder::transition).
+  // The state the last recorded barrier left it in (for CommandEncoder::transition); after
+  // barriers on parts of it (TextureBarrier::range), the last one's.
   [[nodiscard]] Access state() const { return state_; }
   // Overrides the tracked state, e.g. after recorded work was abandoned without submitting.
   void assume_state(Access state) const { state_ = state; }
@@ -810,6 +860,7 @@ struct TextureBarrier {
   const Texture* texture = nullptr;
   Access before = Access::Undefined;
   Access after = Access::Undefined;
+  TextureRange range{};  // the subresources it moves (default: all)
 };
 struct BufferBarrier {
   const Buffer* buffer = nullptr;
@@ -835,6 +886,10 @@ class CommandEncoder {
   // Scales all of `src` (CopySrc state) onto all of `dst` (CopyDst state), converting the
   // format (e.g. RGBA to a window's BGRA); linear or nearest filtering.
   void blit_texture(const Texture& src, const Texture& dst, FilterMode filter = FilterMode::Linear);
+  // Scales mip `src_mip` of `src` onto mip `dst_mip` of `dst`, every layer: with src == dst
+  // and two mips, a mip chain generated inside one texture (each mip in its own state).
+  void blit_texture(const Texture& src, std::uint32_t src_mip, const Texture& dst, std::uint32_t dst_mip,
+                    FilterMode filter = FilterMode::Linear);
   // Averages the samples of multisampled colour `src` (CopySrc state) into single-sample
   // `dst` (CopyDst state) of its format and size: a resolve as a transfer, which reads `src`
   // and writes nothing else (a render pass's resolve target stores its attachment too).

@@ -399,21 +399,33 @@ Result<Texture> Device::create_texture(const TextureDescriptor& desc, Placement 
 }
 
 Result<TextureView> Texture::create_view(const TextureViewDescriptor& d) const {
-  if (d.mip_count == 0 || d.base_mip + d.mip_count > desc_.mip_level_count)
+  if (d.mip_count == 0 || d.base_mip + std::uint64_t(d.mip_count) > desc_.mip_level_count)
     return fail(ErrorKind::InvalidArgument, "texture '{}': view of mips [{}, {}) but it has {}", desc_.label,
-                d.base_mip, d.base_mip + d.mip_count, desc_.mip_level_count);
+                d.base_mip, std::uint64_t(d.base_mip) + d.mip_count, desc_.mip_level_count);
+  const std::uint32_t layers = layer_count();
+  const TextureRange range{d.base_mip, d.mip_count, d.base_layer, d.layer_count};
+  if (!range.fits(desc_.mip_level_count, layers))
+    return fail(ErrorKind::InvalidArgument, "texture '{}': view of {} but it has {} layer{}", desc_.label,
+                describe(range), layers, layers == 1 ? "" : "s");
+  const std::uint32_t layer_count = range.layers_of(layers);
   VkImageViewCreateInfo info{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
   info.image = image_;
-  info.viewType = view_type(desc_.dimension);
+  // All of its layers: the texture's own type; one layer of an array or cube: 2D (a face to
+  // render into or sample alone); several: an array of them.
+  info.viewType = layer_count == layers || desc_.dimension == TextureDimension::D3 ? view_type(desc_.dimension)
+                  : layer_count == 1                                                ? VK_IMAGE_VIEW_TYPE_2D
+                                                                                    : VK_IMAGE_VIEW_TYPE_2D_ARRAY;
   info.format = detail::to_vk(desc_.format);
   // Views used for sampling see depth only; stencil would need its own view.
   info.subresourceRange = {aspect_of(desc_.format) & ~VkImageAspectFlags(VK_IMAGE_ASPECT_STENCIL_BIT), d.base_mip,
-                           d.mip_count, 0, VK_REMAINING_ARRAY_LAYERS};
+                           d.mip_count, d.base_layer, layer_count};
   TextureView view;
   view.device_ = device_;
   view.texture_ = this;
   view.base_mip_ = d.base_mip;
   view.mip_count_ = d.mip_count;
+  view.base_layer_ = d.base_layer;
+  view.layer_count_ = layer_count;
   if (!image_) return view;  // a declaring device's texture: a view of nothing, like its texture
   if (VkResult r = vkCreateImageView(device_->device, &info, nullptr, &view.view_); r != VK_SUCCESS)
     return std::unexpected(vk_error(r, weft::format("creating a view of texture '{}'", desc_.label)));

@@ -75,6 +75,8 @@ void GraphData::clear() {
   backward_edges = false;
   maybe_unwritten_read = false;
   multisampled = false;
+  if (subresources) ranges.resize(1);
+  subresources = false;
   previous = nullptr;
   arena.reset();
 }
@@ -156,10 +158,13 @@ std::string use_names(std::uint16_t uses, ResourceType type) {
                                        pass_name, g.describe(resource), g.versions[existing.slot].version, version)
                          : weft::format("pass '{}': uses {} both as {} and as {}; a pass can use a resource one way at "
                                        "a time: to read what it writes, copy it to a second resource in an earlier "
-                                       "pass (or split the pass in two); one texture per mip or layer where they "
-                                       "are used apart",
+                                       "pass (or split the pass in two){}",
                                        pass_name, g.describe(resource), use_names(existing.uses, type),
-                                       use_names(use, type)),
+                                       use_names(use, type),
+                                       type == ResourceType::Texture
+                                           ? "; where it uses different mips or layers, declare each with its "
+                                             "TextureRange"
+                                           : ""),
             {std::string(pass_name)}, {std::string(g.resources[resource].name)});
 }
 
@@ -173,10 +178,49 @@ std::string use_names(std::uint16_t uses, ResourceType type) {
             {std::string(other), std::string(pass_name)}, {std::string(g.resources[resource].name)});
 }
 
+[[gnu::cold, gnu::noinline]] void report_overlap(GraphData& g, std::uint32_t pass, std::uint32_t resource,
+                                                 const AccessNode& existing, std::uint16_t use,
+                                                 std::uint16_t range) {
+  const std::string_view pass_name = g.passes[pass].name;
+  const TextureDesc& desc = g.resources[resource].texture_desc;
+  const std::uint32_t mips = desc.mip_level_count, layers = declared_layers(desc);
+  add_error(g, GraphErrorKind::ConflictingUsage,
+            weft::format("pass '{}': uses {} of {} as {} and {} of it as {}; the two overlap, and a mip or layer is "
+                         "in one state at a time: declare ranges that do not overlap (TextureRange::mip, ::layer, "
+                         "::at), or one use of the whole",
+                         pass_name, gpu::describe(g.ranges[existing.range], mips, layers), g.describe(resource),
+                         use_names(existing.uses, ResourceType::Texture), gpu::describe(g.ranges[range], mips, layers),
+                         use_names(use, ResourceType::Texture)),
+            {std::string(pass_name)}, {std::string(g.resources[resource].name)});
+}
+
+// The version this pass's write of another range of `resource` made from `input`, if any.
+std::uint32_t sibling_output(const GraphData& g, const PassNode& pass, std::uint32_t resource, std::uint32_t input) {
+  for (std::uint32_t i = pass.first_access, n = std::uint32_t(g.accesses.size()); i < n; ++i) {
+    const AccessNode& a = g.accesses[i];
+    if (a.resource == resource && a.slot == input && a.writes()) return a.out_slot;
+  }
+  return invalid_index;
+}
+
+}  // namespace
+
+bool overlap(const TextureRange& a, const TextureRange& b, std::uint32_t mips, std::uint32_t layers) {
+  auto apart = [](std::uint64_t a0, std::uint64_t an, std::uint64_t b0, std::uint64_t bn) {
+    return a0 + an <= b0 || b0 + bn <= a0;
+  };
+  return !apart(a.base_mip, a.mips_of(mips), b.base_mip, b.mips_of(mips)) &&
+         !apart(a.base_layer, a.layers_of(layers), b.base_layer, b.layers_of(layers));
+}
+
+namespace {
+
 // declare()'s slow path: a second declaration of a resource by one pass (merged into one
-// access), an older version, and every mistake (reported here, out of line).
+// access, or a second access for another range of a texture), an older version, and every
+// mistake (reported here, out of line). `range` indexes GraphData::ranges (0: the whole).
 std::uint32_t declare_any(GraphData& g, std::uint32_t pass, ResourceType type, std::uint32_t resource,
-                          std::uint32_t version, std::uint16_t use, bool write, gpu::Access access) {
+                          std::uint32_t version, std::uint16_t use, bool write, gpu::Access access,
+                          std::uint16_t range = 0) {
   if (resource >= g.resources.size() || g.resources[resource].type != type) {
     report_invalid_handle(g, pass, type, resource, version, write);
     return version;
@@ -193,6 +237,10 @@ std::uint32_t declare_any(GraphData& g, std::uint32_t pass, ResourceType type, s
   if (const std::uint32_t producer = g.versions[slot].producer; producer != invalid_index && producer != pass)
     g.passes[producer].consumed = true;
   PassNode& pass_node = g.passes[pass];
+  const std::uint32_t mips = node.texture_desc.mip_level_count, layers = declared_layers(node.texture_desc);
+  // A write of another range of this texture by this pass already made the next version:
+  // a second write (of a range apart from it) joins that version.
+  std::uint32_t sibling_out = invalid_index;
 
   // A second declaration of the same resource by this pass merges into the first.
   for (std::uint32_t i = pass_node.first_access, n = std::uint32_t(g.accesses.size()); i < n; ++i) {
@@ -200,6 +248,22 @@ std::uint32_t declare_any(GraphData& g, std::uint32_t pass, ResourceType type, s
     if (existing.resource != resource) continue;
     const bool same_input = slot == existing.slot;
     const bool own_output = existing.writes() && slot == existing.out_slot;
+    if (existing.range != range) {
+      if (!same_input && !own_output) {
+        report_conflict(g, pass, type, resource, existing, version, use, true);
+        return version;
+      }
+      const bool apart = !overlap(g.ranges[existing.range], g.ranges[range], mips, layers);
+      // Overlapping ranges read the same way are two reads in one state; anything else would
+      // put one subresource in two states.
+      if (!apart && (write || existing.writes() || existing.access != access)) {
+        report_overlap(g, pass, resource, existing, use, range);
+        return version;
+      }
+      slot = existing.slot;  // the version this pass starts from, also when named by its own output
+      if (existing.writes()) sibling_out = existing.out_slot;
+      continue;
+    }
     const auto merged = merge_access(existing.access, access, type);
     if ((!same_input && !own_output) || !merged) {
       report_conflict(g, pass, type, resource, existing, version, use, merged.has_value());
@@ -218,7 +282,8 @@ std::uint32_t declare_any(GraphData& g, std::uint32_t pass, ResourceType type, s
       return version;
     }
     if (!existing.writes()) {
-      existing.out_slot = new_version(g, resource, pass);
+      if (sibling_out == invalid_index) sibling_out = sibling_output(g, pass_node, resource, existing.slot);
+      existing.out_slot = sibling_out != invalid_index ? sibling_out : new_version(g, resource, pass);
       g.versions[existing.slot].next_writer = pass;
     }
     note_access(g, pass, node, resource, type, existing.slot, use, false, true);
@@ -233,7 +298,10 @@ std::uint32_t declare_any(GraphData& g, std::uint32_t pass, ResourceType type, s
   a.reads = !write;
   a.texture = type == ResourceType::Texture;
   a.imported = node.imported;
-  if (write) {
+  a.range = range;
+  if (write && sibling_out != invalid_index) {
+    a.out_slot = sibling_out;
+  } else if (write) {
     VersionNode& input = g.versions[slot];
     if (input.next_writer != invalid_index) report_second_writer(g, pass, resource, version, input.next_writer);
     else input.next_writer = pass;
@@ -319,6 +387,51 @@ std::uint32_t declare_slow(GraphData& g, std::uint32_t pass, ResourceType type, 
   return declare_any(g, pass, type, resource, version, use, write, access);
 }
 
+std::uint32_t declared_layers(const TextureDesc& desc) {
+  if (desc.size.is_relative || desc.dimension == gpu::TextureDimension::D3) return 1;
+  return std::max(1u, desc.size.absolute.depth_or_layers);
+}
+
+std::uint32_t declare_range(GraphData& g, std::uint32_t pass, std::uint32_t resource, std::uint32_t version,
+                            TextureUse use, bool write, const TextureRange& range) {
+  const std::uint16_t bit = use_bit(use);
+  const gpu::Access access = access_of(use);
+  const bool wrong_direction = write != is_write(use);
+  if (wrong_direction || resource >= g.resources.size() || g.resources[resource].type != ResourceType::Texture)
+    return declare_slow(g, pass, ResourceType::Texture, resource, version, bit, write, access, wrong_direction);
+  ResourceNode& node = g.resources[resource];
+  const std::uint32_t mips = node.texture_desc.mip_level_count, layers = declared_layers(node.texture_desc);
+  if (range.covers(mips, layers))  // the whole texture: the usual path
+    return declare(g, pass, ResourceType::Texture, resource, version, bit, write, access, false);
+  const std::string_view pass_name = g.passes[pass].name;
+  if (!range.fits(mips, layers)) {
+    add_error(g, GraphErrorKind::InvalidDescriptor,
+              weft::format("pass '{}': {} {} of {}, which has {} mip{} and {} layer{}", pass_name,
+                           write ? "writes" : "reads", gpu::describe(range), g.describe(resource), mips,
+                           mips == 1 ? "" : "s", layers, layers == 1 ? "" : "s"),
+              {std::string(pass_name)}, {std::string(node.name)});
+    return version;
+  }
+  // Stored with its counts spelled out, so that equal ranges compare equal.
+  const TextureRange exact{range.base_mip, range.mips_of(mips), range.base_layer, range.layers_of(layers)};
+  std::size_t index = 1;
+  while (index < g.ranges.size() && g.ranges[index] != exact) ++index;
+  if (index == g.ranges.size()) {
+    if (index > 0xffff) {
+      add_error(g, GraphErrorKind::InvalidDescriptor,
+                weft::format("pass '{}': more than 65,535 distinct texture ranges in one graph", pass_name),
+                {std::string(pass_name)}, {std::string(node.name)});
+      return version;
+    }
+    g.ranges.push_back(exact);
+  }
+  node.ranged = true;
+  g.subresources = true;
+  // An attachment of a mip other than 0 has that mip's size: compile compares sizes then.
+  if (bit & attachment_use_bits) g.passes[pass].attachment_sizes_differ = true;
+  return declare_any(g, pass, ResourceType::Texture, resource, version, bit, write, access, std::uint16_t(index));
+}
+
 std::string format_extent(gpu::Extent3D e) {
   return e.depth_or_layers > 1 ? weft::format("{}x{}x{}", e.width, e.height, e.depth_or_layers)
                                : weft::format("{}x{}", e.width, e.height);
@@ -341,6 +454,13 @@ BufferHandle PassBuilder::create_buffer(std::string_view name, const BufferDesc&
                       weft::format("pass '{}': creates buffer '{}' with a zero size", graph_->passes[pass_].name, name),
                       {std::string(graph_->passes[pass_].name)}, {std::string(name)});
   return {index, 0};
+}
+
+TextureHandle PassBuilder::read(TextureHandle handle, TextureUse use, const TextureRange& range) {
+  return {handle.index, detail::declare_range(*graph_, pass_, handle.index, handle.version, use, false, range)};
+}
+TextureHandle PassBuilder::write(TextureHandle handle, TextureUse use, const TextureRange& range) {
+  return {handle.index, detail::declare_range(*graph_, pass_, handle.index, handle.version, use, true, range)};
 }
 
 void PassBuilder::side_effect() { graph_->passes[pass_].side_effect = true; }

@@ -17,6 +17,7 @@ module;
 #include <queue>
 #include <string>
 #include <string_view>
+#include <tuple>
 #include <utility>
 #include <vector>
 module weft.graph;
@@ -435,18 +436,25 @@ class Scheduler {
     }
   }
 
+  // The size an attachment renders at: its texture's, at the mip its range starts with.
+  [[nodiscard]] gpu::Extent3D attachment_extent(const AccessNode& a) const {
+    const gpu::Extent3D e = s_.resources[a.resource].extent;
+    const std::uint32_t mip = g_.ranges[a.range].base_mip;
+    return {std::max(1u, e.width >> mip), std::max(1u, e.height >> mip), 1};
+  }
+
   [[nodiscard]] bool attachments_mismatch(std::uint32_t p) const {
     const PassNode& pass = g_.passes[p];
-    std::uint32_t first = invalid_index;
+    const AccessNode* first = nullptr;
     bool differ = false;
     for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
       const AccessNode& a = g_.accesses[i];
       if (!a.texture || !(a.uses & attachment_uses)) continue;
-      if (first == invalid_index) {
-        first = a.resource;
+      if (!first) {
+        first = &a;
         continue;
       }
-      const gpu::Extent3D x = s_.resources[first].extent, y = s_.resources[a.resource].extent;
+      const gpu::Extent3D x = attachment_extent(*first), y = attachment_extent(a);
       differ = differ || x.width != y.width || x.height != y.height;
     }
     return differ;
@@ -457,11 +465,15 @@ class Scheduler {
   void ordered_by_edges() {
     const std::uint32_t P = s_.pass_count;
     std::vector<std::uint32_t> begin(P + 1, 0);
+    std::vector<std::pair<std::uint32_t, Edge>> subresource_edges;
+    if (g_.subresources) subresource_edges = edges_of_subresources();
     auto for_each_edge = [&](auto&& emit) {
+      for (const auto& [from, edge] : subresource_edges) emit(from, edge.to, edge);
       for (std::uint32_t p = 0; p < P; ++p) {
         const PassNode& pass = g_.passes[p];
         for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
           const AccessNode& a = g_.accesses[i];
+          if (g_.subresources && g_.resources[a.resource].ranged) continue;  // edges_of_subresources()
           const VersionNode& v = g_.versions[a.slot];
           if (v.producer != invalid_index && v.producer != p) emit(v.producer, p, Edge{p, a.resource});
           if (a.reads && v.next_writer != invalid_index && v.next_writer != p)
@@ -492,6 +504,73 @@ class Scheduler {
         if (--indegree[edges[e].to] == 0) ready.push(edges[e].to);
     }
     if (placed < P) report_cycles(begin, edges, indegree);
+  }
+
+  // The ordering edges of textures used in parts, mip by mip and layer by layer: a read waits
+  // for the last write of each subresource it reads, a write for the reads and the write of
+  // each subresource before it -- so passes that use different faces or mips of one texture
+  // are not ordered by it. Versions are a texture's program order: the accesses are visited
+  // version by version, the writes that made a version before the reads of it.
+  [[nodiscard]] std::vector<std::pair<std::uint32_t, Edge>> edges_of_subresources() const {
+    std::vector<std::pair<std::uint32_t, Edge>> out;
+    struct Event {
+      std::uint32_t version, order, pass, access;  // order: 0 = a write making `version`, 1 = a read of it
+    };
+    std::vector<std::vector<Event>> events(s_.resource_count);
+    for (std::uint32_t p = 0; p < s_.pass_count; ++p) {
+      const PassNode& pass = g_.passes[p];
+      for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
+        const AccessNode& a = g_.accesses[i];
+        if (!g_.resources[a.resource].ranged) continue;
+        if (a.writes()) events[a.resource].push_back({g_.versions[a.out_slot].version, 0, p, i});
+        else events[a.resource].push_back({g_.versions[a.slot].version, 1, p, i});
+      }
+    }
+    std::vector<std::uint32_t> last_writer;
+    std::vector<std::vector<std::uint32_t>> readers;
+    for (std::uint32_t r = 0; r < s_.resource_count; ++r) {
+      std::vector<Event>& list = events[r];
+      if (list.empty()) continue;
+      std::sort(list.begin(), list.end(), [](const Event& x, const Event& y) {
+        return std::tie(x.version, x.order, x.access) < std::tie(y.version, y.order, y.access);
+      });
+      const TextureDesc& desc = g_.resources[r].texture_desc;
+      const std::uint32_t mips = desc.mip_level_count, layers = declared_layers(desc);
+      last_writer.assign(std::size_t(mips) * layers, invalid_index);
+      readers.assign(std::size_t(mips) * layers, {});
+      for (const Event& e : list) {
+        const TextureRange& range = g_.ranges[g_.accesses[e.access].range];
+        const std::uint32_t m_end = range.base_mip + range.mips_of(mips), l_end = range.base_layer + range.layers_of(layers);
+        for (std::uint32_t m = range.base_mip; m < m_end; ++m) {
+          for (std::uint32_t l = range.base_layer; l < l_end; ++l) {
+            const std::size_t sub = std::size_t(m) * layers + l;
+            const std::uint32_t writer = last_writer[sub];
+            if (writer != invalid_index && writer != e.pass) out.push_back({writer, Edge{e.pass, r}});
+            if (e.order == 1) {
+              if (std::find(readers[sub].begin(), readers[sub].end(), e.pass) == readers[sub].end())
+                readers[sub].push_back(e.pass);
+              continue;
+            }
+            for (std::uint32_t reader : readers[sub])
+              if (reader != e.pass) out.push_back({reader, Edge{e.pass, r, e.version - 1, true}});
+            readers[sub].clear();
+            last_writer[sub] = e.pass;
+          }
+        }
+      }
+    }
+    // One edge per pair and resource is enough for Kahn's algorithm and the cycle report.
+    std::sort(out.begin(), out.end(), [](const auto& x, const auto& y) {
+      return std::tie(x.first, x.second.to, x.second.resource, x.second.overwrite) <
+             std::tie(y.first, y.second.to, y.second.resource, y.second.overwrite);
+    });
+    out.erase(std::unique(out.begin(), out.end(),
+                          [](const auto& x, const auto& y) {
+                            return x.first == y.first && x.second.to == y.second.to &&
+                                   x.second.resource == y.second.resource && x.second.overwrite == y.second.overwrite;
+                          }),
+              out.end());
+    return out;
   }
 
   // One error per strongly connected component left over: the shortest cycle through its
@@ -689,33 +768,56 @@ class Scheduler {
 
   [[gnu::cold, gnu::noinline]] void report_attachment_sizes(const std::vector<std::uint32_t>& mismatched) {
     auto same = [](gpu::Extent3D x, gpu::Extent3D y) { return x.width == y.width && x.height == y.height; };
+    // An attachment is a texture, or a range of one (a mip renders at its own size): keyed
+    // by resource and range.
+    using Key = std::uint64_t;
+    auto resource_of = [](Key k) { return std::uint32_t(k >> 16); };
+    auto extent_of = [&](Key k) {
+      const gpu::Extent3D e = s_.resources[resource_of(k)].extent;
+      const std::uint32_t mip = g_.ranges[k & 0xffffu].base_mip;
+      return gpu::Extent3D{std::max(1u, e.width >> mip), std::max(1u, e.height >> mip), 1};
+    };
+    auto label = [&](Key k) {
+      const std::uint32_t r = resource_of(k);
+      const auto range = std::uint16_t(k & 0xffffu);
+      if (range == 0) return weft::format("texture '{}'", g_.resources[r].name);
+      const ResourceInfo& info = s_.resources[r];
+      return weft::format("{} of texture '{}'",
+                          gpu::describe(g_.ranges[range], info.mip_level_count, declared_layers(g_.resources[r].texture_desc)),
+                          g_.resources[r].name);
+    };
     auto attachments = [&](std::uint32_t p) {
-      std::vector<std::uint32_t> out;
+      std::vector<Key> out;
       const PassNode& pass = g_.passes[p];
       for (std::uint32_t i = pass.first_access, end = pass.first_access + pass.access_count; i < end; ++i) {
         const AccessNode& a = g_.accesses[i];
-        if (a.texture && (a.uses & attachment_uses)) out.push_back(a.resource);
+        if (a.texture && (a.uses & attachment_uses)) out.push_back((Key(a.resource) << 16) | a.range);
       }
       return out;
     };
+    auto add_name = [&](std::vector<std::string>& names, Key k) {
+      std::string name = resource_name(resource_of(k));
+      if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(std::move(name));
+    };
     // How many mismatched passes attach each texture: of two attachments that disagree, the
     // one many passes share is the odd one (the others agree with their passes' own targets).
-    std::map<std::uint32_t, std::uint32_t> passes_using;
+    std::map<Key, std::uint32_t> passes_using;
     for (std::uint32_t p : mismatched)
-      for (std::uint32_t r : attachments(p)) ++passes_using[r];
+      for (Key k : attachments(p)) ++passes_using[k];
     // Per pass, the odd attachment: the one whose size fewest of the pass's attachments have,
     // among those the most mismatched passes share, the last declared.
-    std::map<std::uint32_t, std::vector<std::uint32_t>> passes_by_odd;
-    std::vector<std::uint32_t> odd_order;
+    std::map<Key, std::vector<std::uint32_t>> passes_by_odd;
+    std::vector<Key> odd_order;
     for (std::uint32_t p : mismatched) {
-      const std::vector<std::uint32_t> list = attachments(p);
-      std::uint32_t odd = list.back(), best_agreeing = ~0u, best_sharing = 0;
-      for (std::uint32_t r : list) {
+      const std::vector<Key> list = attachments(p);
+      Key odd = list.back();
+      std::uint32_t best_agreeing = ~0u, best_sharing = 0;
+      for (Key k : list) {
         std::uint32_t agreeing = 0;
-        for (std::uint32_t q : list) agreeing += same(s_.resources[r].extent, s_.resources[q].extent) ? 1 : 0;
-        const std::uint32_t sharing = passes_using[r];
+        for (Key q : list) agreeing += same(extent_of(k), extent_of(q)) ? 1 : 0;
+        const std::uint32_t sharing = passes_using[k];
         if (agreeing < best_agreeing || (agreeing == best_agreeing && sharing >= best_sharing)) {
-          odd = r;
+          odd = k;
           best_agreeing = agreeing;
           best_sharing = sharing;
         }
@@ -723,16 +825,15 @@ class Scheduler {
       if (passes_by_odd[odd].empty()) odd_order.push_back(odd);
       passes_by_odd[odd].push_back(p);
     }
-    for (std::uint32_t odd : odd_order) {
+    for (Key odd : odd_order) {
       const std::vector<std::uint32_t>& passes = passes_by_odd[odd];
       if (passes.size() == 1) {
         const std::uint32_t p = passes.front();
         std::string list;
         std::vector<std::string> names;
-        for (std::uint32_t r : attachments(p)) {
-          list += weft::format("{}texture '{}' is {}", list.empty() ? "" : ", ", g_.resources[r].name,
-                               format_extent(s_.resources[r].extent));
-          names.push_back(resource_name(r));
+        for (Key k : attachments(p)) {
+          list += weft::format("{}{} is {}", list.empty() ? "" : ", ", label(k), format_extent(extent_of(k)));
+          add_name(names, k);
         }
         error(GraphErrorKind::MismatchedAttachmentSizes,
               weft::format("pass '{}': attachments have different sizes: {}", g_.passes[p].name, list), {pass_name(p)},
@@ -740,26 +841,26 @@ class Scheduler {
         continue;
       }
       std::string pass_list, other_sizes;
-      std::vector<std::string> pass_names, names{resource_name(odd)};
-      std::vector<std::uint32_t> others_seen;
+      std::vector<std::string> pass_names, names{resource_name(resource_of(odd))};
+      std::vector<Key> others_seen;
       for (std::uint32_t p : passes) {
         pass_list += weft::format("{}'{}'", pass_list.empty() ? "" : ", ", g_.passes[p].name);
         pass_names.push_back(pass_name(p));
-        for (std::uint32_t r : attachments(p)) {
-          if (r == odd || std::find(others_seen.begin(), others_seen.end(), r) != others_seen.end()) continue;
-          others_seen.push_back(r);
-          names.push_back(resource_name(r));
-          const std::string size = format_extent(s_.resources[r].extent);
+        for (Key k : attachments(p)) {
+          if (k == odd || std::find(others_seen.begin(), others_seen.end(), k) != others_seen.end()) continue;
+          others_seen.push_back(k);
+          add_name(names, k);
+          const std::string size = format_extent(extent_of(k));
           if (other_sizes.find(size) == std::string::npos)
             other_sizes += weft::format("{}{}", other_sizes.empty() ? "" : " or ", size);
         }
       }
+      const std::string odd_label = label(odd);
       error(GraphErrorKind::MismatchedAttachmentSizes,
-            weft::format("texture '{}' is {}, but the other attachments of the {} passes it is attached to are {}: "
+            weft::format("{} is {}, but the other attachments of the {} passes it is attached to are {}: "
                          "passes {}; give it their size (or the same relative size), or give those passes a "
                          "texture of its size",
-                         g_.resources[odd].name, format_extent(s_.resources[odd].extent), passes.size(), other_sizes,
-                         pass_list),
+                         odd_label, format_extent(extent_of(odd)), passes.size(), other_sizes, pass_list),
             std::move(pass_names), std::move(names));
     }
   }
@@ -1001,7 +1102,8 @@ bool same_declarations(const GraphData& now, const GraphData& before) {
       now.accesses.size() != before.accesses.size() || now.versions.size() != before.versions.size() ||
       now.outputs.size() != before.outputs.size() || !now.declaration_errors.empty() ||
       !before.declaration_errors.empty() || now.backward_edges != before.backward_edges ||
-      now.maybe_unwritten_read != before.maybe_unwritten_read)
+      now.maybe_unwritten_read != before.maybe_unwritten_read || now.subresources != before.subresources ||
+      (now.subresources && now.ranges != before.ranges))
     return false;
   // Cheapest first: what changes between frames usually shows in the counts, the outputs or
   // a descriptor (a resize) before the accesses are compared byte for byte.

@@ -30,6 +30,9 @@ struct CompileScratch {
   std::vector<std::uint32_t> alias_group_of, alias_group_parent, alias_group_number;
   std::vector<gpu::Access> current;
   std::vector<std::uint8_t> released;
+  // Textures used in parts: each one's subresource states, mip-major, from sub_begin[r].
+  std::vector<std::uint32_t> sub_begin;
+  std::vector<gpu::Access> sub_state;
   HeapBuilders heaps;
 };
 

@@ -152,6 +152,7 @@ struct ResourceNode {
   ResourceType type = ResourceType::Texture;
   bool imported = false;
   gpu::Access initial_state = gpu::Access::Undefined;
+  bool ranged = false;     // some pass uses part of it (a TextureRange): compile tracks its subresources
   std::uint16_t uses = 0;  // use bits over every pass's accesses (its gpu usage)
   std::uint32_t creator = invalid_index;  // the pass that created a transient
   std::uint32_t latest_slot = invalid_index;
@@ -191,7 +192,8 @@ struct VersionNode {
 };
 
 // One pass's use of one resource (several declarations of the same resource by one pass
-// are merged into one access, so each pass has one state per resource).
+// are merged into one access, so each pass has one state per resource -- or, where it uses
+// disjoint ranges of a texture, one access and one state per range).
 struct AccessNode {
   std::uint32_t resource = invalid_index;
   std::uint32_t slot = invalid_index;      // the version read, or the version a write starts from
@@ -201,7 +203,7 @@ struct AccessNode {
   bool texture = false;   // copies of the resource's type and import flag: compile's hot loops
   bool imported = false;  // then never touch the (large) resource records
   std::uint16_t uses = 0;  // use bits
-  std::uint16_t unused = 0;  // what would be padding, named, so that every byte has a value
+  std::uint16_t range = 0;  // GraphData::ranges index of the subresources used; 0: the whole resource
   // inline: a member defined in a module's class is not implicitly inline, and compile's
   // loops call this per access.
   [[nodiscard]] inline bool writes() const { return out_slot != invalid_index; }
@@ -243,6 +245,11 @@ struct GraphData {
   bool backward_edges = false;
   bool maybe_unwritten_read = false;
   bool multisampled = false;  // some texture has more than one sample: compile checks counts
+  // The ranges accesses name (AccessNode::range); ranges[0] is the whole texture. Any other
+  // one makes `subresources` true, and compile tracks the states and hazards of the ranged
+  // resources' mips and layers one by one.
+  std::vector<TextureRange> ranges{TextureRange{}};
+  bool subresources = false;
   // Last frame's declarations (the other set of arrays reset() alternates with), which a
   // compiled plan may be reused for; null when there is no last frame.
   GraphData* previous = nullptr;
@@ -279,6 +286,13 @@ inline constexpr std::uint16_t attachment_use_bits =
 std::uint32_t declare_slow(GraphData& g, std::uint32_t pass, ResourceType type, std::uint32_t resource,
                            std::uint32_t version, std::uint16_t use, bool write, gpu::Access access,
                            bool wrong_direction);
+// A use of part of a texture (out of line: the whole-texture paths above stay as they are).
+std::uint32_t declare_range(GraphData& g, std::uint32_t pass, std::uint32_t resource, std::uint32_t version,
+                            TextureUse use, bool write, const TextureRange& range);
+// Whether two ranges of a texture with `mips` mips and `layers` layers share a subresource.
+bool overlap(const TextureRange& a, const TextureRange& b, std::uint32_t mips, std::uint32_t layers);
+// A texture's layer count as declared (a relative size has one layer; a 3D texture one).
+std::uint32_t declared_layers(const TextureDesc& desc);
 
 inline bool same_declared_size(const TextureSize& a, const TextureSize& b) {
   if (a.is_relative != b.is_relative) return false;

@@ -40,6 +40,14 @@ struct Realized {
   std::optional<gpu::Texture> fallback_texture;  // handed out for undeclared accesses
   std::optional<gpu::Buffer> fallback_buffer;
   std::optional<gpu::QuerySet> queries;
+  // Views of parts of transient textures (PassResources::view with a range), made on first
+  // use and kept with the textures; an imported texture's are made per frame (Executor::kept).
+  struct RangeView {
+    const gpu::Texture* texture;
+    TextureRange range;
+    std::unique_ptr<gpu::TextureView> view;
+  };
+  std::vector<RangeView> range_views;
 };
 
 CompiledState::CompiledState() = default;
@@ -104,6 +112,41 @@ struct Executor {
     return t ? *t : *state.realized->fallback_texture;
   }
 
+  const gpu::TextureView& view(std::uint32_t pass, TextureHandle h, const TextureRange& range) {
+    const gpu::Texture& t = texture(pass, h);
+    if (&t == &*state.realized->fallback_texture) return t.view();
+    const std::uint32_t mips = t.descriptor().mip_level_count, layers = t.layer_count();
+    if (range.covers(mips, layers)) return t.view();
+    const std::string_view pass_name = graph.passes[pass].name;
+    if (!range.fits(mips, layers)) {
+      errors.push_back(weft::format("pass '{}': execute asks for a view of {} of texture '{}', which has {} mips and {} "
+                                   "layers",
+                                   pass_name, gpu::describe(range), t.label(), mips, layers));
+      error_passes.emplace_back(pass_name);
+      error_resources.emplace_back(graph.resources[h.index].name);
+      return t.view();
+    }
+    const TextureRange exact{range.base_mip, range.mips_of(mips), range.base_layer, range.layers_of(layers)};
+    const bool imported = graph.resources[h.index].imported;
+    if (!imported)
+      for (const auto& v : state.realized->range_views)
+        if (v.texture == &t && v.range == exact) return *v.view;
+    auto made = t.create_view({exact.base_mip, exact.mip_count, exact.base_layer, exact.layer_count});
+    if (!made) {
+      errors.push_back(weft::format("pass '{}': {}", pass_name, made.error().message));
+      error_passes.emplace_back(pass_name);
+      return t.view();
+    }
+    if (imported) {
+      auto holder = std::make_unique<Kept<gpu::TextureView>>(std::move(*made));
+      const gpu::TextureView& view = holder->value;
+      kept.push_back(std::move(holder));
+      return view;
+    }
+    state.realized->range_views.push_back({&t, exact, std::make_unique<gpu::TextureView>(std::move(*made))});
+    return *state.realized->range_views.back().view;
+  }
+
   const gpu::Buffer& buffer(std::uint32_t pass, BufferHandle h) {
     if (h.index >= state.resource_count || graph.resources[h.index].type != ResourceType::Buffer) {
       undeclared(pass, h.index, ResourceType::Buffer, h.version);
@@ -127,29 +170,49 @@ struct Executor {
     pass.execute.invoke(pass.execute.callable, pass.execute.data, resources, ctx);
   }
 
+  // Barriers within one vkCmdPipelineBarrier2 are not ordered against each other, so two that
+  // move the same subresource (a texture placed whole, then one of its mips moved on for a
+  // second use in the same pass) go in consecutive batches, in the order planned.
+  void add_texture_barrier(const gpu::TextureBarrier& barrier) {
+    const gpu::Texture* t = barrier.texture;
+    const bool clash = t && std::any_of(texture_batch.begin(), texture_batch.end(), [&](const gpu::TextureBarrier& x) {
+                         return x.texture == t && overlap(x.range, barrier.range, t->descriptor().mip_level_count,
+                                                          t->layer_count());
+                       });
+    if (clash) {
+      encoder->barrier(texture_batch, buffer_batch);
+      texture_batch.clear();
+      buffer_batch.clear();
+    }
+    texture_batch.push_back(barrier);
+  }
+
   void record_barriers(std::span<const PlannedBarrier> planned) {
     release_batch.clear();
     texture_batch.clear();
     buffer_batch.clear();
     for (const PlannedBarrier& b : planned) {
       const bool is_texture = state.resources[b.resource].type == ResourceType::Texture;
+      if (b.previous_occupant != invalid_index && is_texture && b.occupant_before != b.occupant_after)
+        release_batch.push_back(
+            gpu::TextureBarrier{texture_of(b.previous_occupant), b.occupant_before, b.occupant_after, b.range});
+    }
+    if (!release_batch.empty()) encoder->barrier(release_batch, {});
+    for (const PlannedBarrier& b : planned) {
+      const bool is_texture = state.resources[b.resource].type == ResourceType::Texture;
       if (b.previous_occupant != invalid_index && is_texture) {
-        const gpu::Texture* occupant = texture_of(b.previous_occupant);
         const gpu::Texture* taker = texture_of(b.resource);
-        if (b.occupant_before != b.occupant_after)
-          release_batch.push_back(gpu::TextureBarrier{occupant, b.occupant_before, b.occupant_after});
         if (std::none_of(texture_batch.begin(), texture_batch.end(),
                          [&](const gpu::TextureBarrier& x) { return x.texture == taker; }))
-          texture_batch.push_back(gpu::TextureBarrier{taker, takeover_wait_state, b.after});
+          add_texture_barrier(gpu::TextureBarrier{taker, takeover_wait_state, b.after});
       } else if (b.previous_occupant != invalid_index) {
         buffer_batch.push_back(gpu::BufferBarrier{buffer_of(b.resource), b.occupant_before, b.after});
       } else if (is_texture) {
-        texture_batch.push_back(gpu::TextureBarrier{texture_of(b.resource), b.before, b.after});
+        add_texture_barrier(gpu::TextureBarrier{texture_of(b.resource), b.before, b.after, b.range});
       } else {
         buffer_batch.push_back(gpu::BufferBarrier{buffer_of(b.resource), b.before, b.after});
       }
     }
-    if (!release_batch.empty()) encoder->barrier(release_batch, {});
     if (!texture_batch.empty() || !buffer_batch.empty()) encoder->barrier(texture_batch, buffer_batch);
   }
 };
@@ -239,6 +302,13 @@ void PassContext::keep_alive(std::unique_ptr<detail::KeptObject> object) const {
 
 const gpu::Texture& PassResources::texture(TextureHandle handle) const { return executor_->texture(pass_, handle); }
 const gpu::TextureView& PassResources::view(TextureHandle handle) const { return texture(handle).view(); }
+const gpu::TextureView& PassResources::view(TextureHandle handle, const TextureRange& range) const {
+  return executor_->view(pass_, handle, range);
+}
+gpu::Extent3D PassResources::extent(TextureHandle handle, std::uint32_t mip) const {
+  const gpu::Extent3D e = texture(handle).size();
+  return {std::max(1u, e.width >> mip), std::max(1u, e.height >> mip), e.depth_or_layers};
+}
 const gpu::Buffer& PassResources::buffer(BufferHandle handle) const { return executor_->buffer(pass_, handle); }
 gpu::Extent3D PassResources::extent(TextureHandle handle) const { return texture(handle).size(); }
 

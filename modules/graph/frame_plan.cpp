@@ -17,6 +17,7 @@ module;
 #include <iterator>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <span>
 #include <string>
@@ -573,12 +574,79 @@ namespace {
   b.occupant_before = occupant_before;
   b.occupant_after = occupant_after;
 }
+void add_range_barrier(std::vector<PlannedBarrier>& barriers, std::uint32_t resource, gpu::Access before,
+                       gpu::Access after, const TextureRange& range) {
+  add_barrier(barriers, resource, before, after);
+  barriers.back().range = range;
+}
 
 // From Undefined a texture still needs its layout set; a buffer has nothing to wait for.
 bool needs_barrier(gpu::Access before, gpu::Access after, bool texture) {
   if (before == gpu::Access::Undefined) return texture;
   return before != after || gpu::is_write(before) || gpu::is_write(after);
 }
+
+// A subresource of a texture placed whole for its first use that no pass has touched since:
+// it is in the layout of that first state with nothing to wait for, so a use in that same
+// state needs no barrier (six passes rendering six faces of a cube are not serialized by
+// barriers between them). Marked in the state's spare top bit.
+constexpr std::uint8_t untouched_bit = 0x80;
+constexpr gpu::Access untouched(gpu::Access a) { return gpu::Access(std::uint8_t(a) | untouched_bit); }
+constexpr bool is_untouched(gpu::Access a) { return (std::uint8_t(a) & untouched_bit) != 0; }
+constexpr gpu::Access real_state(gpu::Access a) { return gpu::Access(std::uint8_t(a) & ~untouched_bit); }
+
+// The states of a texture used in parts, one per mip and layer (mip-major).
+struct Subresources {
+  gpu::Access* states;
+  std::uint32_t mips, layers;
+  [[nodiscard]] gpu::Access& at(std::uint32_t mip, std::uint32_t layer) const { return states[mip * layers + layer]; }
+  [[nodiscard]] TextureRange exact(const TextureRange& r) const {
+    return {r.base_mip, r.mips_of(mips), r.base_layer, r.layers_of(layers)};
+  }
+  // Calls fn(rectangle, state) for the subresources of `range`, grouped into rectangles of
+  // one state (barriers name rectangles): runs of layers per mip, each run merged with the
+  // same run of the mips below it.
+  template <class Fn>
+  void for_each_block(const TextureRange& range, Fn&& fn) const {
+    const TextureRange r = exact(range);
+    struct Run {
+      std::uint32_t base_layer, count, base_mip, mip_count;
+      gpu::Access state;
+    };
+    std::vector<Run> open, next;
+    for (std::uint32_t m = r.base_mip; m < r.base_mip + r.mip_count; ++m) {
+      next.clear();
+      for (std::uint32_t l = r.base_layer; l < r.base_layer + r.layer_count;) {
+        const gpu::Access state = at(m, l);
+        std::uint32_t end = l + 1;
+        while (end < r.base_layer + r.layer_count && at(m, end) == state) ++end;
+        next.push_back({l, end - l, m, 1, state});
+        l = end;
+      }
+      // A run the mip above had too (same layers, same state) grows downwards.
+      for (Run& run : next) {
+        for (Run& above : open) {
+          if (above.count != 0 && above.base_layer == run.base_layer && above.count == run.count &&
+              above.state == run.state) {
+            run.base_mip = above.base_mip;
+            run.mip_count = above.mip_count + 1;
+            above.count = 0;  // taken over
+            break;
+          }
+        }
+      }
+      for (const Run& above : open)
+        if (above.count != 0) fn(TextureRange{above.base_mip, above.mip_count, above.base_layer, above.count}, above.state);
+      std::swap(open, next);
+    }
+    for (const Run& run : open) fn(TextureRange{run.base_mip, run.mip_count, run.base_layer, run.count}, run.state);
+  }
+  void set(const TextureRange& range, gpu::Access state) const {
+    const TextureRange r = exact(range);
+    for (std::uint32_t m = r.base_mip; m < r.base_mip + r.mip_count; ++m)
+      for (std::uint32_t l = r.base_layer; l < r.base_layer + r.layer_count; ++l) at(m, l) = state;
+  }
+};
 
 // Sizes transients: estimated (repeated descriptors estimated once in a row), by the
 // caller's functions, or by the device.
@@ -718,6 +786,25 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
     }
   }
   scratch.released.assign(R, 0);  // a texture moves to its release state only once
+  // Textures used in parts start with every subresource in the texture's starting state.
+  const bool any_ranged = graph.subresources;
+  if (any_ranged) {
+    scratch.sub_begin.assign(R, invalid_index);
+    scratch.sub_state.clear();
+    for (std::uint32_t r = 0; r < R; ++r) {
+      const ResourceNode& node = graph.resources[r];
+      if (!node.ranged) continue;
+      scratch.sub_begin[r] = std::uint32_t(scratch.sub_state.size());
+      scratch.sub_state.resize(scratch.sub_state.size() +
+                                   std::size_t(node.texture_desc.mip_level_count) * declared_layers(node.texture_desc),
+                               current[r]);
+    }
+  }
+  auto subresources_of = [&](std::uint32_t r) -> std::optional<Subresources> {
+    if (!any_ranged || scratch.sub_begin[r] == invalid_index) return std::nullopt;
+    const TextureDesc& desc = graph.resources[r].texture_desc;
+    return Subresources{scratch.sub_state.data() + scratch.sub_begin[r], desc.mip_level_count, declared_layers(desc)};
+  };
   state.takeover_first.assign(R, 0);
   state.takeover_count.assign(R, 0);
   state.takeovers.clear();
@@ -818,6 +905,20 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
         if (first == last && a->texture) add_barrier(barriers, r, gpu::Access::Undefined, a->access);
         for (std::uint32_t t = first; t < last; ++t) {
           const std::uint32_t occupant = takeovers[t];
+          if (const auto parts = a->texture ? subresources_of(occupant) : std::nullopt) [[unlikely]] {
+            // Its mips and layers may be in different states: each block moves on its own.
+            const bool release = !released[occupant];
+            parts->for_each_block(TextureRange{}, [&](const TextureRange& block, gpu::Access part_state) {
+              const gpu::Access occupant_before = real_state(part_state);
+              const gpu::Access occupant_after = release ? release_state(occupant_before) : occupant_before;
+              add_barrier(barriers, r, gpu::Access::Undefined, a->access, occupant, occupant_before, occupant_after);
+              barriers.back().range = block;
+              parts->set(block, occupant_after);
+              state_of[occupant] = occupant_after;
+            });
+            released[occupant] = 1;
+            continue;
+          }
           const gpu::Access occupant_before = state_of[occupant];
           const gpu::Access occupant_after =
               a->texture && !released[occupant] ? release_state(occupant_before) : occupant_before;
@@ -825,6 +926,25 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
           released[occupant] = 1;
           state_of[occupant] = occupant_after;
         }
+        // Placed whole, from Undefined: every part of it is in this first state now, and the
+        // parts this access does not use are untouched in it.
+        if (const auto parts = subresources_of(r)) [[unlikely]] {
+          parts->set(TextureRange{}, untouched(a->access));
+          parts->set(graph.ranges[a->range], a->access);
+        }
+      } else if (const auto parts = subresources_of(r)) [[unlikely]] {
+        if (!info.used) {
+          info.used = true;
+          info.first_use = pos;
+        }
+        // Part by part: a block already in this state for reading needs nothing.
+        const TextureRange& range = graph.ranges[a->range];
+        parts->for_each_block(range, [&](const TextureRange& block, gpu::Access part_state) {
+          const gpu::Access part_before = real_state(part_state);
+          if (is_untouched(part_state) ? part_before != a->access : needs_barrier(part_before, a->access, true))
+            add_range_barrier(barriers, r, part_before, a->access, block);
+        });
+        parts->set(range, a->access);
       } else {
         if (!info.used) {
           info.used = true;
@@ -834,7 +954,9 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
       }
       info.last_use = pos;
       state_of[r] = a->access;
-      if (last_pass_of[r] == p) ending.push_back(r);
+      // A pass with two accesses of one texture (two ranges) frees it once.
+      if (last_pass_of[r] == p && (!any_ranged || std::find(ending.begin(), ending.end(), r) == ending.end()))
+        ending.push_back(r);
     }
     if (aliasing)
       for (const std::uint32_t r : ending)
@@ -847,6 +969,18 @@ void plan_frame(const GraphData& graph, CompiledState& state, const gpu::Device*
     if (out.resource < R && resources[out.resource].used) resources[out.resource].last_use = positions - 1;
   for (std::uint32_t r = 0; r < R; ++r) {
     const gpu::Access final_state = state.resource_final_state[r];
+    if (const auto parts = subresources_of(r); parts && resources[r].used) [[unlikely]] {
+      // A texture used in parts ends the frame in one state (outputs in theirs; imports in
+      // their last access's, so that the next frame starts from one state): the parts that
+      // are not yet in it move.
+      if (final_state == gpu::Access::Undefined && !graph.resources[r].imported) continue;
+      const gpu::Access end = final_state != gpu::Access::Undefined ? final_state : current[r];
+      parts->for_each_block(TextureRange{}, [&](const TextureRange& block, gpu::Access part_state) {
+        if (real_state(part_state) != end) add_range_barrier(state.barriers, r, real_state(part_state), end, block);
+      });
+      parts->set(TextureRange{}, end);
+      continue;
+    }
     if (final_state == gpu::Access::Undefined || !resources[r].used || current[r] == final_state) continue;
     add_barrier(state.barriers, r, current[r], final_state);
   }

@@ -49,6 +49,16 @@ class PassBuilder {
   [[nodiscard]] TextureHandle write(TextureHandle handle, TextureUse use);
   [[nodiscard]] BufferHandle write(BufferHandle handle, BufferUse use);
 
+  // Part of a texture: mips and layers (TextureRange::mip(1), ::layer(face), ::at(mip, layer)).
+  // A pass may use disjoint ranges of one texture in different ways -- sample mip 0 while it
+  // renders mip 1, copy mip 2 into mip 3 -- each range in its own state with its own barriers.
+  // A write of a range makes the next version of the whole texture (the rest carried over),
+  // but hazards are tracked per mip and layer: passes that write different faces of a cube,
+  // or read one face while another is written, are not ordered against each other by the
+  // texture. Overlapping ranges in one pass may only be read the same way.
+  TextureHandle read(TextureHandle handle, TextureUse use, const TextureRange& range);
+  [[nodiscard]] TextureHandle write(TextureHandle handle, TextureUse use, const TextureRange& range);
+
   // Keeps the pass even when nothing it writes reaches an output (e.g. it uploads uniforms
   // or writes a readback buffer the graph does not know about).
   void side_effect();
@@ -73,8 +83,12 @@ class PassResources {
  public:
   [[nodiscard]] const gpu::Texture& texture(TextureHandle handle) const;
   [[nodiscard]] const gpu::TextureView& view(TextureHandle handle) const;
+  // A view of mips and layers of a declared texture (made once per frame's textures and
+  // kept): one face of a cube to render into, one mip of a chain to sample or write.
+  [[nodiscard]] const gpu::TextureView& view(TextureHandle handle, const TextureRange& range) const;
   [[nodiscard]] const gpu::Buffer& buffer(BufferHandle handle) const;
   [[nodiscard]] gpu::Extent3D extent(TextureHandle handle) const;
+  [[nodiscard]] gpu::Extent3D extent(TextureHandle handle, std::uint32_t mip) const;  // of one mip
 
  private:
   PassResources(detail::Executor* executor, std::uint32_t pass) : executor_(executor), pass_(pass) {}

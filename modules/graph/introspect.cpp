@@ -137,13 +137,21 @@ std::string CompiledGraph::dump() const {
   std::string out = weft::format("render graph '{}': {} passes ({} culled), {} resources\norder:\n", g.name,
                                 s.pass_count, s.pass_count - s.order.size(), s.resource_count);
   auto barrier_line = [&](const PlannedBarrier& b) {
-    std::string line = weft::format("      barrier {}: {} -> {}", resource(b.resource), gpu::to_string(b.before),
-                                   gpu::to_string(b.after));
+    const bool part = b.range != TextureRange{};
+    auto range_of = [&](std::uint32_t r) {
+      const ResourceInfo& info = s.resources[r];
+      const std::uint32_t layers = info.dimension == gpu::TextureDimension::D3 ? 1 : info.extent.depth_or_layers;
+      return gpu::describe(b.range, info.mip_level_count, layers);
+    };
+    std::string line = weft::format("      barrier {}{}: {} -> {}", resource(b.resource),
+                                   part && b.previous_occupant == invalid_index ? ", " + range_of(b.resource) : "",
+                                   gpu::to_string(b.before), gpu::to_string(b.after));
     if (b.previous_occupant != invalid_index)
       line += b.occupant_before == b.occupant_after
                   ? weft::format(" (takes over memory of {})", resource(b.previous_occupant))
-                  : weft::format(" (takes over memory of {}, moved {} -> {})", resource(b.previous_occupant),
-                                 gpu::to_string(b.occupant_before), gpu::to_string(b.occupant_after));
+                  : weft::format(" (takes over memory of {}{}, moved {} -> {})", resource(b.previous_occupant),
+                                 part ? ", " + range_of(b.previous_occupant) : "", gpu::to_string(b.occupant_before),
+                                 gpu::to_string(b.occupant_after));
     return line + "\n";
   };
   for (std::uint32_t pos = 0; pos < s.order.size(); ++pos) {

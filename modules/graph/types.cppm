@@ -15,6 +15,10 @@ export namespace weft {
 
 inline constexpr std::uint32_t invalid_index = ~0u;
 
+// Subresources: mips and layers of a texture a pass uses apart from the rest (see
+// PassBuilder::read/write with a range). The default range is the whole texture.
+using TextureRange = gpu::TextureRange;
+
 // ---- handles ---------------------------------------------------------------------------
 // A resource index plus a version: every write returns the next version, so the order of a
 // read after a write is explicit in the handles. The tag keeps a texture handle from being
@@ -273,6 +277,9 @@ struct ResourceInfo {
 // in the frame: `resource` starts from Undefined, and the previous occupant is moved from
 // occupant_before to occupant_after first (a layout change the first time its memory is
 // taken over, nothing after that), so the new resource's transition waits for it.
+// `range` is the subresources the barrier moves: of `resource`, or -- with previous_occupant
+// set -- of the occupant (a resource taking memory over starts whole, from Undefined; an
+// occupant whose mips or layers were left in different states moves part by part).
 struct PlannedBarrier {
   std::uint32_t resource = invalid_index;
   gpu::Access before = gpu::Access::Undefined;
@@ -280,6 +287,7 @@ struct PlannedBarrier {
   std::uint32_t previous_occupant = invalid_index;
   gpu::Access occupant_before = gpu::Access::Undefined;
   gpu::Access occupant_after = gpu::Access::Undefined;
+  TextureRange range{};
 };
 
 struct MemoryHeap {

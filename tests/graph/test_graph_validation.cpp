@@ -640,7 +640,7 @@ TEST_SUITE("graph errors") {
     CHECK(e.message ==
           "pass 'feedback': uses texture 't' both as sampled and as color-attachment; a pass can use a resource one way "
           "at a time: to read what it writes, copy it to a second resource in an earlier pass (or split the pass in "
-          "two); one texture per mip or layer where they are used apart");
+          "two); where it uses different mips or layers, declare each with its TextureRange");
   }
 
   TEST_CASE("a copy within one buffer is one transfer state; within one texture it is still refused (two layouts)") {
