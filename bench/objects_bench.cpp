@@ -33,6 +33,7 @@ import weft.core;
 import weft.gpu;
 import weft.scene;
 import weft.renderer;
+import weft.builtin_features;
 import weft.bench.device;
 
 using namespace weft;
@@ -128,6 +129,9 @@ Result<void> run(const Options& o) {
   std::optional<bench::Session> session;
   std::optional<renderer::Renderer> r;
   if (o.render) {
+    // The frame's pass types (the default pipeline: shadow map, scene colour, background,
+    // tone map) are plugins: registered here, as any application does.
+    WEFT_TRY_VOID(weft::register_builtin_pass_types());
     session = bench::open_session("weft-bench-objects");
     if (!session) return fail(ErrorKind::Unsupported, "no Vulkan device (run with --no-render for the selection alone)");
     WEFT_TRY(auto made, renderer::Renderer::create(session->device));

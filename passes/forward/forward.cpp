@@ -1,9 +1,12 @@
 module;
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <expected>
 #include <memory>
+#include <numeric>
+#include <tuple>
 #include <span>
 #include <utility>
 #include <vector>
@@ -32,7 +35,7 @@ struct DrawConstants {
   vec4 roughness_emissive;
   vec4 maps;  // normal scale, occlusion strength, uv1 bits, has a normal map
 };
-static_assert(sizeof(DrawConstants) <= 128);
+static_assert(sizeof(DrawConstants) == 112);  // forward.vert's DrawData, std430
 
 Result<gpu::Texture> one_texel(gpu::Device& device, const char* label, std::array<std::uint8_t, 4> texel) {
   auto t = device.create_texture({.label = label, .size = {1, 1, 1}, .format = gpu::Format::RGBA8Unorm,
@@ -50,7 +53,8 @@ Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
         {.label = "forward",
          .entries = {{0, gpu::BindingType::UniformBuffer, gpu::ShaderStage::Vertex | gpu::ShaderStage::Fragment},
                      {1, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
-                     {2, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment}}}));
+                     {2, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
+                     {3, gpu::BindingType::ReadOnlyStorageBuffer, gpu::ShaderStage::Vertex}}}));
   WEFT_TRY(auto material_layout, device.create_bind_group_layout(
         {.label = "forward-material",
          .entries = {{0, gpu::BindingType::TextureSampler, gpu::ShaderStage::Fragment},
@@ -61,8 +65,7 @@ Result<ForwardPass> ForwardPass::create(gpu::Device& device) {
   WEFT_TRY(auto white, one_texel(device, "white", {255, 255, 255, 255}));
   WEFT_TRY(auto flat_normal, one_texel(device, "flat-normal", {128, 128, 255, 255}));
   WEFT_TRY(auto made_layout, device.create_pipeline_layout({.label = "forward",
-                                                 .bind_group_layouts = {&bind_layout, &material_layout},
-                                                 .push_constant_size = sizeof(DrawConstants)}));
+                                                 .bind_group_layouts = {&bind_layout, &material_layout}}));
   // Shared with the pipelines of other sample counts, made when a frame first asks.
   const auto layout = std::make_shared<const gpu::PipelineLayout>(std::move(made_layout));
   // weft's vertex layout plus the second UV set at location 5, which only this pass reads (an
@@ -90,18 +93,6 @@ Result<void> ForwardPass::add(RenderGraph& graph, std::span<const frame::DrawIte
       graph, {.name = "forward", .reads_environment = true, .clear_color = clear_color, .samples = samples},
       [state, items](frame::ScenePassDraw& draw) {
         PassContext& ctx = draw.context;
-        auto group = ctx.device().create_bind_group(
-            {.label = "forward",
-             .layout = &state->bind_layout,
-             .entries = {gpu::bind(0, draw.uniforms), gpu::bind(1, draw.shadow_map, &state->shadow_sampler),
-                         gpu::bind(2, *draw.environment, &state->environment_sampler)}});
-        if (!group) return ctx.encoder().report_error(group.error());
-        const auto& frame_group = ctx.keep(std::move(*group));  // alive until the frame is done
-        auto pipeline = state->pipeline.at(ctx.device(), draw.samples);
-        if (!pipeline) return ctx.encoder().report_error(pipeline.error());
-        gpu::RenderPassEncoder& pass = draw.pass;
-        pass.set_pipeline(**pipeline);
-        pass.set_bind_group(0, frame_group);
         // One material bind group per distinct set of maps and samplers (textures are
         // imported read-only assets, already in ShaderRead state).
         using MapKey = std::array<std::pair<const gpu::TextureView*, const gpu::Sampler*>, 5>;
@@ -126,19 +117,58 @@ Result<void> ForwardPass::add(RenderGraph& graph, std::span<const frame::DrawIte
           material_groups.emplace_back(key, &ctx.keep(std::move(*g)));
           return material_groups.back().second;
         };
-        for (const auto& item : items) {
-          const auto* item_group = material_group(item);
-          if (!item_group) break;
-          pass.set_bind_group(1, *item_group);
+        // Objects that share a mesh and a material's maps are one instanced draw (30,000
+        // copies of one mesh in one material: one draw); each instance's model matrix and
+        // material factors are a record in a buffer made for this frame, in draw order.
+        std::vector<const gpu::BindGroup*> group_of(items.size());
+        for (std::size_t i = 0; i < items.size(); ++i)
+          if (!(group_of[i] = material_group(items[i]))) return;
+        std::vector<std::uint32_t> order(items.size());
+        std::iota(order.begin(), order.end(), 0u);
+        std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+          const auto key = [&](std::uint32_t i) {
+            return std::tuple(reinterpret_cast<std::uintptr_t>(group_of[i]), reinterpret_cast<std::uintptr_t>(items[i].mesh), i);
+          };
+          return key(a) < key(b);
+        });
+        auto records = ctx.device().create_buffer({.label = "forward-draws",
+                                                   .size = std::max<std::size_t>(items.size(), 1) * sizeof(DrawConstants),
+                                                   .usage = gpu::BufferUsage::Storage | gpu::BufferUsage::MapWrite});
+        if (!records) return ctx.encoder().report_error(records.error());
+        auto bytes = records->mapped();
+        if (!bytes) return ctx.encoder().report_error(bytes.error());
+        auto* record = reinterpret_cast<DrawConstants*>(bytes->data());
+        for (std::size_t k = 0; k < order.size(); ++k) {
+          const frame::DrawItem& item = items[order[k]];
           const auto& m = item.material;
           std::uint32_t uv1_bits = 0;
           for (std::uint32_t i = 0; i < item.maps.size(); ++i) uv1_bits |= (item.maps[i].texcoord == 1 ? 1u : 0u) << i;
-          pass.push(DrawConstants{item.model, vec4(m.base_color, m.metallic), vec4(m.roughness, m.emissive),
-                                  vec4(m.normal_scale, m.occlusion_strength, float(uv1_bits),
-                                       item.maps[2].view ? 1.0f : 0.0f)});
-          pass.set_vertex_buffer(0, item.mesh->vertices);
-          pass.set_index_buffer(item.mesh->indices);
-          pass.draw_indexed(item.mesh->index_count);
+          record[k] = DrawConstants{item.model, vec4(m.base_color, m.metallic), vec4(m.roughness, m.emissive),
+                                    vec4(m.normal_scale, m.occlusion_strength, float(uv1_bits),
+                                         item.maps[2].view ? 1.0f : 0.0f)};
+        }
+        const gpu::Buffer& draws = ctx.keep(std::move(*records));
+        auto group = ctx.device().create_bind_group(
+            {.label = "forward",
+             .layout = &state->bind_layout,
+             .entries = {gpu::bind(0, draw.uniforms), gpu::bind(1, draw.shadow_map, &state->shadow_sampler),
+                         gpu::bind(2, *draw.environment, &state->environment_sampler), gpu::bind(3, draws)}});
+        if (!group) return ctx.encoder().report_error(group.error());
+        const auto& frame_group = ctx.keep(std::move(*group));  // alive until the frame is done
+        auto pipeline = state->pipeline.at(ctx.device(), draw.samples);
+        if (!pipeline) return ctx.encoder().report_error(pipeline.error());
+        gpu::RenderPassEncoder& pass = draw.pass;
+        pass.set_pipeline(**pipeline);
+        pass.set_bind_group(0, frame_group);
+        for (std::size_t first = 0; first < order.size();) {
+          const std::uint32_t i = order[first];
+          std::size_t end = first + 1;
+          while (end < order.size() && group_of[order[end]] == group_of[i] && items[order[end]].mesh == items[i].mesh) ++end;
+          pass.set_bind_group(1, *group_of[i]);
+          pass.set_vertex_buffer(0, items[i].mesh->vertices);
+          pass.set_index_buffer(items[i].mesh->indices);
+          pass.draw_indexed(items[i].mesh->index_count, std::uint32_t(end - first), 0, 0, std::uint32_t(first));
+          first = end;
         }
       });
 }

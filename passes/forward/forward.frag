@@ -17,12 +17,10 @@ layout(set = 1, binding = 1) uniform sampler2D metallic_roughness_map;
 layout(set = 1, binding = 2) uniform sampler2D normal_map;
 layout(set = 1, binding = 3) uniform sampler2D occlusion_map;
 layout(set = 1, binding = 4) uniform sampler2D emissive_map;
-layout(push_constant) uniform Draw {
-  mat4 model;
-  vec4 base_color_metallic;
-  vec4 roughness_emissive;
-  vec4 maps;  // x normal scale, y occlusion strength, z: bit i set = map i reads uv1, w: 1 = has a normal map
-} draw;
+// The instance's material factors (forward.vert reads them from its draw record).
+layout(location = 5) flat in vec4 in_base_color_metallic;
+layout(location = 6) flat in vec4 in_roughness_emissive;
+layout(location = 7) flat in vec4 in_maps;  // x normal scale, y occlusion strength, z: bit i set = map i reads uv1, w: 1 = has a normal map
 layout(location = 0) in vec3 world_position;
 layout(location = 1) in vec3 world_normal;
 layout(location = 2) in vec2 uv0;
@@ -42,7 +40,7 @@ float shadow_factor(vec3 p, vec3 n) {
   return lit / 9.0;
 }
 
-vec2 map_uv(int map) { return ((int(draw.maps.z + 0.5) >> map) & 1) != 0 ? uv1 : uv0; }
+vec2 map_uv(int map) { return ((int(in_maps.z + 0.5) >> map) & 1) != 0 ? uv1 : uv0; }
 
 // Lambert + GGX for one light of radiance `light` (already times the falloff) from `l`.
 vec3 direct_light(vec3 n, vec3 v, vec3 l, vec3 light, vec3 base, float metallic, float roughness, vec3 f0) {
@@ -60,12 +58,12 @@ vec3 direct_light(vec3 n, vec3 v, vec3 l, vec3 light, vec3 base, float metallic,
 }
 
 void main() {
-  vec3 base = draw.base_color_metallic.rgb * texture(base_color_map, map_uv(0)).rgb;
+  vec3 base = in_base_color_metallic.rgb * texture(base_color_map, map_uv(0)).rgb;
   vec4 mr = texture(metallic_roughness_map, map_uv(1));
-  float metallic = clamp(draw.base_color_metallic.a * mr.b, 0.0, 1.0);
-  float roughness = clamp(draw.roughness_emissive.x * mr.g, 0.045, 1.0);
-  vec3 emissive = draw.roughness_emissive.yzw * texture(emissive_map, map_uv(4)).rgb;
-  float occlusion = mix(1.0, texture(occlusion_map, map_uv(3)).r, clamp(draw.maps.y, 0.0, 1.0));
+  float metallic = clamp(in_base_color_metallic.a * mr.b, 0.0, 1.0);
+  float roughness = clamp(in_roughness_emissive.x * mr.g, 0.045, 1.0);
+  vec3 emissive = in_roughness_emissive.yzw * texture(emissive_map, map_uv(4)).rgb;
+  float occlusion = mix(1.0, texture(occlusion_map, map_uv(3)).r, clamp(in_maps.y, 0.0, 1.0));
 
   vec3 ng = normalize(world_normal);
   vec3 v = normalize(frame.camera_position.xyz - world_position);
@@ -74,11 +72,11 @@ void main() {
   // top (glTF's rule), the map's +Y.
   vec3 n = ng;
   vec3 t = world_tangent.xyz - ng * dot(ng, world_tangent.xyz);
-  if (draw.maps.w > 0.5 && dot(t, t) > 1e-12) {
+  if (in_maps.w > 0.5 && dot(t, t) > 1e-12) {
     t = normalize(t);
     vec3 b = cross(ng, t) * (world_tangent.w < 0.0 ? -1.0 : 1.0);
     vec3 tn = texture(normal_map, map_uv(2)).xyz * 2.0 - 1.0;
-    tn.xy *= draw.maps.x;
+    tn.xy *= in_maps.x;
     n = normalize(t * tn.x + b * tn.y + ng * max(tn.z, 1e-3));
   }
 

@@ -32,10 +32,11 @@ class ShadowPass {
 
  private:
   ShadowSettings settings_;
+  gpu::BindGroupLayout casters_layout_;  // the casters' light-space matrices (a storage buffer)
   gpu::PipelineLayout layout_;
   gpu::RenderPipeline pipeline_;
-  ShadowPass(ShadowSettings s, gpu::PipelineLayout l, gpu::RenderPipeline p)
-      : settings_(s), layout_(std::move(l)), pipeline_(std::move(p)) {}
+  ShadowPass(ShadowSettings s, gpu::BindGroupLayout c, gpu::PipelineLayout l, gpu::RenderPipeline p)
+      : settings_(s), casters_layout_(std::move(c)), layout_(std::move(l)), pipeline_(std::move(p)) {}
 };
 
 // The pass type of the key light's depth map (pass_type.cpp); weft::register_builtins() registers it.

@@ -425,6 +425,12 @@ TEST_CASE("issue 33: weft-bench-objects answers --help without work, refuses bad
   CHECK_MESSAGE(contains(r.output, "| 500 |"), r.output);
   CHECK_MESSAGE(contains(r.output, "| yes |"), r.output);
   CHECK_FALSE(contains(r.output, "| NO |"));
+  // And it renders: a few objects, lit and unlit (it once failed to find the default
+  // pipeline's pass types, which it had not registered).
+  const auto rendered = run_command("timeout 120 " + bench + " --counts 4 --runs 1 --size 16x12 --reference-max 0");
+  CHECK_MESSAGE(rendered.exit_code == 0, rendered.output);
+  CHECK_MESSAGE(contains(rendered.output, "| 4 | "), rendered.output);
+  CHECK_FALSE(contains(rendered.output, "error"));
 }
 
 TEST_CASE("weft render --output writes any resource: depth, the shadow map and an intermediate of every feature") {
