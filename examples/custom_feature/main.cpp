@@ -16,6 +16,7 @@
 #include <fstream>
 #include <string>
 #include <vector>
+#include <weft/args.h>
 import weft.core;
 import weft.gpu;
 import weft.image;
@@ -96,8 +97,8 @@ int run(int argc, char** argv) {
     else if ((a == "-o" || a == "--output") && i + 1 < argc) output = argv[++i];
     else if (a == "--dot" && i + 1 < argc) dot_path = argv[++i];
     else if (a == "--size" && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &width, &height) != 2 || width == 0 || height == 0)
-        return failed(weft::format("--size expects WxH, got '{}'", argv[i]));
+      if (!weft::args::size_into(argv[++i], 8192, width, height))
+        return failed(weft::format("--size expects WxH with sides 1..8192, got '{}'", argv[i]));
     } else if (!a.starts_with("-") && scene_path.empty()) scene_path = a;
     else return failed(weft::format("unknown argument '{}' (see --help)", a));
   }

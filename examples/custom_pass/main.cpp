@@ -15,6 +15,7 @@
 #include <fstream>
 #include <string>
 #include <vector>
+#include <weft/args.h>
 import weft.core;
 import weft.gpu;
 import weft.graph;
@@ -70,8 +71,8 @@ int run(int argc, char** argv) {
   bool check = false;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--size") == 0 && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &width, &height) != 2 || width == 0 || height == 0) {
-        std::fprintf(stderr, "--size wants WxH, e.g. 640x360\n");
+      if (!weft::args::size_into(argv[++i], 8192, width, height)) {
+        std::fprintf(stderr, "weft-custom-pass: --size wants WxH with sides 1..8192 (e.g. 640x360), got '%s'\n", argv[i]);
         return 2;
       }
     } else if (std::strcmp(argv[i], "--dot") == 0 && i + 1 < argc) {

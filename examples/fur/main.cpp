@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 #include <nlohmann/json.hpp>
+#include <weft/args.h>
 import weft.core;
 import weft.feature;
 import weft.gpu;
@@ -110,8 +111,8 @@ int run(int argc, char** argv) {
     } else if (a == "--only" && i + 1 < argc) {
       only = argv[++i];
     } else if (a == "--size" && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &width, &height) != 2 || width == 0 || height == 0) {
-        std::fprintf(stderr, "--size wants WxH, e.g. 512x512\n");
+      if (!weft::args::size_into(argv[++i], 8192, width, height)) {
+        std::fprintf(stderr, "weft-fur-example: --size wants WxH with sides 1..8192 (e.g. 512x512), got '%s'\n", argv[i]);
         return 2;
       }
     } else if (a == "--check") {

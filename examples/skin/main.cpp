@@ -27,6 +27,7 @@
 #include <vector>
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
+#include <weft/args.h>
 import weft.core;
 import weft.feature;
 import weft.gpu;
@@ -390,8 +391,8 @@ int main(int argc, char** argv) {
     if (a == "--check") o.check = true;
     else if (a == "--head" && i + 1 < argc) o.head = argv[++i];
     else if (a == "--size" && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &o.width, &o.height) != 2 || !o.width || !o.height) {
-        std::fprintf(stderr, "weft-skin-example: --size expects WxH\n");
+      if (!weft::args::size_into(argv[++i], 8192, o.width, o.height)) {
+        std::fprintf(stderr, "weft-skin-example: --size expects WxH with sides 1..8192, got '%s'\n", argv[i]);
         return 2;
       }
     } else if (a.starts_with("-")) {
