@@ -85,7 +85,8 @@ int main(int argc, char** argv) {
     }
   }
   if (model_path.empty()) {
-    std::fprintf(stderr, "usage: weft-bench-btf-interpolation MODEL.wbtf [--directions N] (see --help)\n");
+    std::fprintf(stderr, "weft-bench-btf-interpolation: a model (MODEL.wbtf) is required\n"
+                         "usage: weft-bench-btf-interpolation MODEL.wbtf [--directions N] (see --help)\n");
     return 2;
   }
   // The truth holds N x N samples per texel: 256 (65,536 pairs, 10x the measured 6,561) keeps a

@@ -672,6 +672,13 @@ int main(int argc, char** argv) {
       return bad("unknown section '" + a + "'");
     }
   }
+  // A --head that is not a readable file is named before the tables (issue 33: it surfaced after
+  // minutes of other sections, and a FIFO would have waited).
+  if (!o.head.empty())
+    if (auto ok = check_input_file(o.head, "--head mesh"); !ok) {
+      std::fprintf(stderr, "weft-bench-skin: %s\n", ok.error().what().c_str());
+      return 1;
+    }
   std::printf("# weft-bench-skin\n\nCPU: %u hardware threads.\n", std::thread::hardware_concurrency());
   if (o.wants("conventions")) conventions_table();
   if (o.wants("range")) range_table();

@@ -14,6 +14,7 @@
 #include <expected>
 #include <filesystem>
 #include <fstream>
+#include <span>
 #include <string>
 #include <vector>
 #include <weft/args.h>
@@ -125,7 +126,9 @@ int run(int argc, char** argv) {
   if (!dot_path.empty()) {
     auto report = renderer->describe(*scene, options);
     if (!report) return failed(report.error().what());
-    std::ofstream(dot_path) << report->dot;
+    // Atomically, as weft writes every file: an unwritable path, a FIFO or a full disk is an error.
+    if (auto ok = weft::write_file_atomically(dot_path, {std::as_bytes(std::span(report->dot))}, "DOT graph"); !ok)
+      return failed(ok.error().what());
     std::printf("wrote %s\n", dot_path.string().c_str());
   }
   auto frame = renderer->render(*scene, options);

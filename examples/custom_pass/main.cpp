@@ -13,6 +13,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <span>
 #include <string>
 #include <vector>
 #include <weft/args.h>
@@ -79,8 +80,12 @@ int run(int argc, char** argv) {
       dot_path = argv[++i];
     } else if (std::strcmp(argv[i], "--check") == 0) {
       check = true;
+    } else if (std::strcmp(argv[i], "-h") == 0 || std::strcmp(argv[i], "--help") == 0) {
+      std::printf("usage: weft-custom-pass [output.png] [--size WxH] [--dot graph.dot] [--check]\n");
+      return 0;
     } else if (argv[i][0] == '-') {
-      std::fprintf(stderr, "usage: %s [output.png] [--size WxH] [--dot graph.dot] [--check]\n", argv[0]);
+      std::fprintf(stderr, "weft-custom-pass: unknown or incomplete argument '%s'\n"
+                           "usage: weft-custom-pass [output.png] [--size WxH] [--dot graph.dot] [--check]\n", argv[i]);
       return 2;
     } else {
       output = argv[i];
@@ -149,7 +154,9 @@ int run(int argc, char** argv) {
   if (!compiled) return std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str()), 1;
   std::printf("%s", compiled->dump().c_str());
   if (!dot_path.empty()) {
-    std::ofstream(dot_path) << compiled->to_dot();
+    const std::string dot = compiled->to_dot();
+    if (auto ok = write_file_atomically(dot_path, {std::as_bytes(std::span(dot))}, "DOT graph"); !ok)
+      return std::fprintf(stderr, "weft-custom-pass: %s\n", ok.error().what().c_str()), 1;
     std::printf("wrote %s (render with: dot -Tsvg %s -o graph.svg)\n", dot_path.c_str(), dot_path.c_str());
   }
 

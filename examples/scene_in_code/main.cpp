@@ -92,6 +92,13 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "weft-scene-in-code: --size expects WxH with sides 1..8192, got '%s'\n", argv[i]);
         return 2;
       }
+    } else if (arg == "-h" || arg == "--help") {
+      std::printf("usage: weft-scene-in-code [out.png] [--size WxH]\n");
+      return 0;
+    } else if (arg.starts_with("-")) {  // not a file name: `--size` without its value, a typo
+      std::fprintf(stderr, "weft-scene-in-code: unknown or incomplete argument '%s'\nusage: weft-scene-in-code [out.png] [--size WxH]\n",
+                   arg.c_str());
+      return 2;
     } else {
       output = arg;
     }

@@ -395,13 +395,24 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "weft-skin-example: --size expects WxH with sides 1..8192, got '%s'\n", argv[i]);
         return 2;
       }
+    } else if (a == "-h" || a == "--help") {
+      std::printf("usage: weft-skin-example [out-dir] [--size WxH] [--head PATH] [--check]\n");
+      return 0;
     } else if (a.starts_with("-")) {
-      std::fprintf(stderr, "usage: weft-skin-example [out-dir] [--size WxH] [--head PATH] [--check]\n");
+      std::fprintf(stderr, "weft-skin-example: unknown or incomplete argument '%s'\n"
+                           "usage: weft-skin-example [out-dir] [--size WxH] [--head PATH] [--check]\n", a.c_str());
       return 2;
     } else {
       o.out = a;
     }
   }
+  // A --head that is not a readable file is named before any work (issue 33: a missing one fell
+  // back to another head silently, a FIFO or a device wrote every LUT first, a symlink loop threw).
+  if (!o.head.empty())
+    if (auto ok = check_input_file(o.head, "--head mesh"); !ok) {
+      std::fprintf(stderr, "weft-skin-example: %s\n", ok.error().what().c_str());
+      return 1;
+    }
   if (auto ok = run(o); !ok) {
     std::fprintf(stderr, "weft-skin-example: %s\n", ok.error().what().c_str());
     return 1;

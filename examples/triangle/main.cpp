@@ -179,8 +179,12 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "weft-triangle: --size expects WxH with sides 1..8192, got '%s'\n", argv[i]);
         return 2;
       }
+    } else if (arg == "-h" || arg == "--help") {
+      std::printf("usage: weft-triangle [-o out.png] [--size WxH]\n");
+      return 0;
     } else {
-      std::fprintf(stderr, "usage: weft-triangle [-o out.png] [--size WxH]\n");
+      std::fprintf(stderr, "weft-triangle: unknown or incomplete argument '%s'\nusage: weft-triangle [-o out.png] [--size WxH]\n",
+                   arg.c_str());
       return 2;
     }
   }
