@@ -25,6 +25,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <system_error>
 #include <span>
 #include <string>
 #include <vector>
@@ -78,6 +79,7 @@ int main(int argc, char** argv) {
       return 2;
     };
     const auto whole = [&](std::uint64_t lo, std::uint64_t hi) { return weft::args::whole(v, lo, hi); };
+    if (v.empty()) return bad("a value (it was empty)");
     if (a == "--cache") cache = v;
     else if (a == "--optimizer") optimizer = v;
     else if (a == "--schedule") schedule = v;
@@ -129,7 +131,8 @@ int main(int argc, char** argv) {
   // The data: the synthetic twill at the paper's sampling, cached as .btfraw.
   Btf btf;
   const auto t_data = std::chrono::steady_clock::now();
-  if (!cache.empty() && std::filesystem::exists(cache)) {
+  std::error_code cache_error;  // exists() without it threw on a symlink loop (terminate; issue 33)
+  if (!cache.empty() && std::filesystem::exists(cache, cache_error)) {
     auto loaded = load_btf(cache);
     if (!loaded) return std::fprintf(stderr, "%s\n", loaded.error().what().c_str()), 1;
     btf = std::move(*loaded);

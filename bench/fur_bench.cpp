@@ -462,6 +462,10 @@ int main(int argc, char** argv) {
       "  no section named: all three\n";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    if ((a == "--photo" || a == "--scene" || a == "--object") && i + 1 < argc && argv[i + 1][0] == '\0') {
+      std::fprintf(stderr, "weft-bench-fur: %s was given an empty value\n", a.c_str());
+      return 2;
+    }
     if (a == "--accuracy") {
       do_accuracy = true;
     } else if (a == "--speed") {

@@ -650,6 +650,7 @@ int main(int argc, char** argv) {
     if (a == "--runs" || a == "--head" || a == "--size") {
       if (i + 1 >= argc) return bad(a + " needs a value");
       const std::string v = argv[++i];
+      if (v.empty()) return bad(a + " was given an empty value");
       if (a == "--head") {
         o.head = v;
       } else if (a == "--runs") {
@@ -672,11 +673,11 @@ int main(int argc, char** argv) {
       return bad("unknown section '" + a + "'");
     }
   }
-  // A --head that is not a readable file is named before the tables (issue 33: it surfaced after
-  // minutes of other sections, and a FIFO would have waited).
+  // A --head that is not a mesh is named before the tables (issue 33: it surfaced as a table row
+  // after minutes of other sections, and a FIFO would have waited).
   if (!o.head.empty())
-    if (auto ok = check_input_file(o.head, "--head mesh"); !ok) {
-      std::fprintf(stderr, "weft-bench-skin: %s\n", ok.error().what().c_str());
+    if (auto head = scene::load_mesh(o.head); !head) {
+      std::fprintf(stderr, "weft-bench-skin: --head: %s\n", head.error().what().c_str());
       return 1;
     }
   std::printf("# weft-bench-skin\n\nCPU: %u hardware threads.\n", std::thread::hardware_concurrency());

@@ -90,7 +90,10 @@ int main(int argc, char** argv) {
                   "       weft-bench-ssdf --lighting [--size PIXELS] [--samples N] [--runs R] [--teapot PATH] [--quick]\n");
       return 0;
     } else if (arg == "--quick") quick = true, resolution = 16;
-    else if (arg == "--only" && i + 1 < argc) only = argv[++i];
+    else if ((arg == "--only" || arg == "--teapot") && i + 1 < argc && argv[i + 1][0] == '\0') {
+      std::fprintf(stderr, "weft-bench-ssdf: %s was given an empty value\n", arg.c_str());
+      return 2;
+    } else if (arg == "--only" && i + 1 < argc) only = argv[++i];
     else {
       std::fprintf(stderr, "weft-bench-ssdf: unknown or incomplete argument '%s'\n", argv[i]);
       std::fprintf(stderr, "usage: weft-bench-ssdf [--resolution N] [--threads T] [--teapot PATH] [--quick] [--only TEXT]\n");

@@ -93,6 +93,8 @@ int run(int argc, char** argv) {
       std::printf("usage: weft-custom-feature SCENE.json [-o out.png] [--size WxH] [--dot graph.dot] [--list] [--check]\n");
       return 0;
     }
+    if (a.empty() || ((a == "-o" || a == "--output" || a == "--dot" || a == "--size") && i + 1 < argc && argv[i + 1][0] == '\0'))
+      return failed(weft::format("{} an empty value", a.empty() ? "an argument is" : a + " was given"));
     if (a == "--check") check = true;
     else if (a == "--list") list = true;
     else if ((a == "-o" || a == "--output") && i + 1 < argc) output = argv[++i];

@@ -105,6 +105,10 @@ int run(int argc, char** argv) {
   bool check = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    if ((a == "--out" || a == "--photo" || a == "--only" || a == "--write-synthetic") && i + 1 < argc && argv[i + 1][0] == '\0') {
+      std::fprintf(stderr, "weft-fur-example: %s was given an empty value\n", a.c_str());
+      return 2;
+    }
     if (a == "--out" && i + 1 < argc) {
       out = argv[++i];
     } else if (a == "--photo" && i + 1 < argc) {
