@@ -266,7 +266,7 @@ int main(int argc, char** argv) {
       return 0;
     } else if (a == "--scene") {
       auto v = value();
-      if (!v) return bad("--scene needs a file");
+      if (!v || v->empty()) return bad(v ? "--scene was given an empty value" : "--scene needs a file");
       o.scene = std::string(*v);
     } else if (a == "--size" || a == "--time-size") {
       auto v = value();
@@ -304,7 +304,7 @@ int main(int argc, char** argv) {
       o.edge_threshold = t;
     } else if (a == "--out") {
       auto v = value();
-      if (!v) return bad("--out needs a folder");
+      if (!v || v->empty()) return bad(v ? "--out was given an empty value" : "--out needs a folder");
       o.out = std::string(*v);
     } else if (a == "--move-frames") {
       auto v = value();
@@ -323,7 +323,15 @@ int main(int argc, char** argv) {
       return bad(weft::format("unknown argument '{}'", a));
     }
   }
-  if (!fs::is_regular_file(o.scene))
+  // The output folder first, so a path that cannot be one is named before any work; and
+  // is_regular_file without an error code threw on a symlink loop (terminate; issue 33).
+  if (!o.out.empty()) {
+    std::error_code made;
+    fs::create_directories(o.out, made);
+    if (made) return die(weft::format("--out '{}': cannot make the folder: {}", o.out.string(), made.message()));
+  }
+  std::error_code scene_error;
+  if (!fs::is_regular_file(o.scene, scene_error))
     return die(weft::format("no scene at {} (--scene names one; the showcase is examples/scenes/showcase.json)",
                              o.scene.string()));
   if (auto ok = register_builtins(); !ok) return die(ok.error().what());

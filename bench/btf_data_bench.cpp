@@ -18,9 +18,11 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <system_error>
 #include <thread>
 #include <vector>
 #include <glm/glm.hpp>
+#include <weft/args.h>
 import weft.core;
 import weft.image;
 import weft.btf;
@@ -102,29 +104,42 @@ int main(int argc, char** argv) {
   std::filesystem::path images, cache, load;
   bool single_thread = true;
   std::uint32_t pca_sample = ClusterOptions{}.pca_sample_texels;
+  const char* usage = "usage: weft-bench-btf-data [--size N] [--runs R] [--clusters a,b,c] [--pca-sample N] [--images DIR] "
+                      "[--cache FILE] [--load FILE] [--no-single-thread]\n";
+  // A bad value is named before any work (issue 33: std::stoul's exception ended the program).
+  const auto bad = [&](const std::string& why) {
+    std::fprintf(stderr, "weft-bench-btf-data: %s\n%s", why.c_str(), usage);
+    return 2;
+  };
   for (int i = 1; i < argc; ++i) {
     const std::string_view a = argv[i];
-    auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
-    if (a == "--size") size = static_cast<std::uint32_t>(std::stoul(next()));
-    else if (a == "--runs") runs = std::max(1u, static_cast<std::uint32_t>(std::stoul(next())));
-    else if (a == "--images") images = next();
-    else if (a == "--cache") cache = next();
-    else if (a == "--load") load = next();
-    else if (a == "--no-single-thread") single_thread = false;
-    else if (a == "--pca-sample") pca_sample = static_cast<std::uint32_t>(std::stoul(next()));
-    else if (a == "--clusters") {
-      ks.clear();
-      std::string list = next();
-      for (std::size_t p = 0; p < list.size();) {
-        const std::size_t q = std::min(list.find(',', p), list.size());
-        ks.push_back(static_cast<std::uint32_t>(std::stoul(list.substr(p, q - p))));
-        p = q + 1;
-      }
-    } else {
-      std::fprintf(stderr, "usage: weft-bench-btf-data [--size N] [--runs R] [--clusters a,b,c] [--pca-sample N] [--images DIR] "
-                           "[--cache FILE] [--load FILE] [--no-single-thread]\n");
-      return 2;
+    if (a == "-h" || a == "--help") {
+      std::printf("%s", usage);
+      return 0;
     }
+    if (a == "--no-single-thread") {
+      single_thread = false;
+      continue;
+    }
+    if (a != "--size" && a != "--runs" && a != "--images" && a != "--cache" && a != "--load" && a != "--pca-sample" &&
+        a != "--clusters")
+      return bad("unknown argument '" + std::string(a) + "'");
+    if (i + 1 >= argc) return bad(std::string(a) + " needs a value");
+    const std::string_view v = argv[++i];
+    const auto n = weft::args::whole(v, 1, 1'000'000);
+    if (a == "--images") images = std::string(v);
+    else if (a == "--cache") cache = std::string(v);
+    else if (a == "--load") load = std::string(v);
+    else if (a == "--clusters") {
+      const auto list = weft::args::whole_list(v, 1, 1'000'000);
+      if (!list) return bad("--clusters '" + std::string(v) + "': expected whole numbers 1..1000000, comma-separated");
+      ks.assign(list->begin(), list->end());
+    } else if (!n || (a == "--size" && *n > 65536) || (a == "--runs" && *n > 1000)) {
+      return bad(std::string(a) + " '" + std::string(v) + "': expected a whole number within 1.." +
+                 (a == "--size" ? "65536" : a == "--runs" ? "1000" : "1000000"));
+    } else if (a == "--size") size = std::uint32_t(*n);
+    else if (a == "--runs") runs = std::uint32_t(*n);
+    else pca_sample = std::uint32_t(*n);
   }
   log::set_level("warn");
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
@@ -132,7 +147,9 @@ int main(int argc, char** argv) {
 
   // ---- images of the three weaves (small, reduced directions: quick) ------------------
   if (!images.empty()) {
-    std::filesystem::create_directories(images);
+    std::error_code ec;
+    std::filesystem::create_directories(images, ec);
+    if (ec) return bad("--images '" + images.string() + "': cannot make the folder: " + ec.message());
     const auto dirs = ubo2003_directions();
     // (light, view) index pairs: overhead light & view; light 60° from the side; grazing 75°
     // light opposite a 45° view; a mirror pair at 45°.

@@ -32,6 +32,7 @@
 #include <thread>
 #include <vector>
 #include <glm/glm.hpp>
+#include <weft/args.h>
 #include "fma_peak_cpu.h"
 #include "weft-bench-btf-decode_shaders.h"
 import weft.core;
@@ -360,10 +361,28 @@ int main(int argc, char** argv) {
   Options o;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--runs" && i + 1 < argc) o.runs = std::max(1, std::atoi(argv[++i]));
-    else if (a == "--size" && i + 1 < argc) o.size = std::uint32_t(std::max(8, std::atoi(argv[++i])));
-    else if (a == "--ghz" && i + 1 < argc) o.ghz = std::atof(argv[++i]);
-    else if (a == "-h" || a == "--help") {
+    // A bad value is named before any work (issue 33: atoi read "abc" as 0, "-1" as the minimum).
+    const auto bad = [&](const std::string& why) {
+      std::fprintf(stderr, "weft-bench-btf-decode: %s (see --help)\n", why.c_str());
+      return 2;
+    };
+    if (a == "--runs" || a == "--size" || a == "--ghz") {
+      if (i + 1 >= argc) return bad(a + " needs a value");
+      const std::string v = argv[++i];
+      if (a == "--runs") {
+        const auto n = weft::args::whole(v, 1, 1000);
+        if (!n) return bad("--runs '" + v + "': expected a whole number within 1..1000");
+        o.runs = int(*n);
+      } else if (a == "--size") {
+        const auto n = weft::args::whole(v, 8, 4096);
+        if (!n) return bad("--size '" + v + "': expected a whole number within 8..4096");
+        o.size = std::uint32_t(*n);
+      } else {
+        const auto g = weft::args::number(v, 0.01, 100.0);
+        if (!g) return bad("--ghz '" + v + "': expected a clock in GHz within 0.01..100");
+        o.ghz = *g;
+      }
+    } else if (a == "-h" || a == "--help") {
       std::printf(
           "weft-bench-btf-decode [peak] [kernel] [frame] [storage] [--runs N] [--size N] [--ghz F]\n"
           "  peak     FMA throughput measured: a compute shader of FMA chains on the device, C++ AVX2/AVX-512 loops\n"
@@ -373,10 +392,11 @@ int main(int argc, char** argv) {
           "  (no section: all of them; medians of --runs runs; --ghz overrides the clock of the estimate)\n");
       return 0;
     } else if (a.starts_with("-")) {
-      std::fprintf(stderr, "unknown option %s\n", a.c_str());
-      return 2;
-    } else {
+      return bad("unknown option '" + a + "'");
+    } else if (a == "peak" || a == "kernel" || a == "frame" || a == "storage") {
       o.sections.insert(a);
+    } else {
+      return bad("unknown section '" + a + "' (peak, kernel, frame or storage)");
     }
   }
   const unsigned threads = std::thread::hardware_concurrency();

@@ -20,6 +20,7 @@
 #include <string_view>
 #include <vector>
 #include <glm/glm.hpp>
+#include <weft/args.h>
 import weft.core;
 import weft.btf;
 import weft.btf.model;
@@ -52,32 +53,40 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 7, btf_seed = 1;
   for (int i = 1; i < argc; ++i) {
     const std::string_view a = argv[i];
-    auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
-    try {
-      if (a == "--help" || a == "-h") {
-        std::printf(
-            "usage: weft-bench-btf-interpolation MODEL.wbtf [--directions N] [--seed S] [--weave twill] [--btf-seed S]\n"
-            "Compares a neural BTF of the synthetic fabric and the raw-data reference (sample_reference) with the\n"
-            "fabric made at N random light and N random view directions (theta <= 75 deg, N x N pairs per texel),\n"
-            "and both with the data at the 81 x 81 measured directions. N 1 to 256, default 24; seed 7.\n");
-        return 0;
-      }
-      if (a == "--directions") directions = std::stoul(next());
-      else if (a == "--seed") seed = std::stoull(next());
-      else if (a == "--btf-seed") btf_seed = std::stoull(next());
-      else if (a == "--weave") weave = next();
-      else if (!a.starts_with("-") && model_path.empty()) model_path = std::string(a);
-      else {
-        std::fprintf(stderr, "unknown option %s (see --help)\n", std::string(a).c_str());
-        return 2;
-      }
-    } catch (const std::exception&) {
-      std::fprintf(stderr, "option %s: not a number\n", std::string(a).c_str());
+    const auto bad = [&](const std::string& why) {
+      std::fprintf(stderr, "weft-bench-btf-interpolation: %s (see --help)\n", why.c_str());
       return 2;
+    };
+    if (a == "--help" || a == "-h") {
+      std::printf(
+          "usage: weft-bench-btf-interpolation MODEL.wbtf [--directions N] [--seed S] [--weave twill] [--btf-seed S]\n"
+          "Compares a neural BTF of the synthetic fabric and the raw-data reference (sample_reference) with the\n"
+          "fabric made at N random light and N random view directions (theta <= 75 deg, N x N pairs per texel),\n"
+          "and both with the data at the 81 x 81 measured directions. N 1 to 256, default 24; seed 7.\n");
+      return 0;
+    }
+    if (a == "--directions" || a == "--seed" || a == "--btf-seed" || a == "--weave") {
+      if (i + 1 >= argc) return bad(std::string(a) + " needs a value");
+      const std::string v = argv[++i];
+      if (a == "--weave") {
+        weave = v;
+        continue;
+      }
+      // Digits only (issue 33: std::stoull read "-1" as 18446744073709551615).
+      const auto n = weft::args::whole(v, 0, UINT64_MAX);
+      if (!n) return bad(std::string(a) + " '" + v + "': expected a whole number");
+      if (a == "--directions") directions = *n;
+      else if (a == "--seed") seed = *n;
+      else btf_seed = *n;
+    } else if (!a.starts_with("-") && model_path.empty()) {
+      model_path = std::string(a);
+    } else {
+      return bad("unknown option " + std::string(a));
     }
   }
   if (model_path.empty()) {
-    std::fprintf(stderr, "usage: weft-bench-btf-interpolation MODEL.wbtf [--directions N] (see --help)\n");
+    std::fprintf(stderr, "weft-bench-btf-interpolation: a model (MODEL.wbtf) is required\n"
+                         "usage: weft-bench-btf-interpolation MODEL.wbtf [--directions N] (see --help)\n");
     return 2;
   }
   // The truth holds N x N samples per texel: 256 (65,536 pairs, 10x the measured 6,561) keeps a

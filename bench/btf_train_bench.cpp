@@ -25,10 +25,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <system_error>
 #include <span>
-#include <sstream>
 #include <string>
 #include <vector>
+#include <weft/args.h>
 import weft.core;
 import weft.btf;
 import weft.btf.model;
@@ -40,14 +41,6 @@ using namespace weft::btf;
 namespace {
 
 double kib(std::size_t bytes) { return double(bytes) / 1024.0; }
-
-std::vector<std::uint32_t> parse_list(const std::string& text) {
-  std::vector<std::uint32_t> out;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) out.push_back(std::uint32_t(std::stoul(item)));
-  return out;
-}
 
 }  // namespace
 
@@ -74,46 +67,72 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (i + 1 >= argc) {
-      std::fprintf(stderr, "option %s needs a value (--help lists them)\n", a.c_str());
+      std::fprintf(stderr, "weft-bench-btf-train: option %s needs a value (--help lists them)\n", a.c_str());
       return 2;
     }
     const std::string v = argv[i + 1];
-    try {
-      if (a == "--texels") texels = std::uint32_t(std::stoul(v));
-      else if (a == "--clusters") clusters = parse_list(v);
-      else if (a == "--minutes") minutes = std::stod(v);
-      else if (a == "--epochs") epochs = std::uint32_t(std::stoul(v));
-      else if (a == "--directions") directions = std::uint32_t(std::stoul(v));
-      else if (a == "--threads") threads = std::stoul(v);
-      else if (a == "--cache") cache = v;
-      else if (a == "--holdout") holdout = std::uint32_t(std::stoul(v));
-      else if (a == "--learning-rate") learning_rate = std::stof(v);
-      else if (a == "--optimizer") optimizer = v;
-      else if (a == "--schedule") schedule = v;
-      else if (a == "--batch") batch = std::uint32_t(std::stoul(v));
-      else if (a == "--finetune") finetune = std::stod(v);
-      else if (a == "--early-stop") early_stop = std::uint32_t(std::stoul(v));
-      else if (a == "--patience") patience = std::uint32_t(std::stoul(v));
-      else if (a == "--throughput") throughput = std::uint32_t(std::stoul(v));
-      else if (a == "--runs") runs = std::uint32_t(std::stoul(v));
-      else {
-        std::fprintf(stderr, "unknown option %s\n", a.c_str());
-        return 2;
+    // Digits only, within a range, before any work (issue 33: std::stoul read "-1" as 4294967295
+    // texels, std::stod took "nan" minutes).
+    const auto bad = [&](const char* expected) {
+      std::fprintf(stderr, "weft-bench-btf-train: %s '%s': expected %s (--help lists the options)\n", a.c_str(), v.c_str(),
+                   expected);
+      return 2;
+    };
+    const auto whole = [&](std::uint64_t lo, std::uint64_t hi) { return weft::args::whole(v, lo, hi); };
+    if (v.empty()) return bad("a value (it was empty)");
+    if (a == "--cache") cache = v;
+    else if (a == "--optimizer") optimizer = v;
+    else if (a == "--schedule") schedule = v;
+    else if (a == "--clusters") {
+      const auto list = weft::args::whole_list(v, 0, 1'000'000);
+      if (!list) return bad("whole numbers 0..1000000, comma-separated");
+      clusters.assign(list->begin(), list->end());
+    } else if (a == "--minutes" || a == "--learning-rate" || a == "--finetune") {
+      const double hi = a == "--finetune" ? 1.0 : a == "--minutes" ? 1e6 : 100.0;
+      const auto x = weft::args::number(v, 0.0, hi);
+      if (!x) return bad(a == "--finetune" ? "a number in [0, 1]" : a == "--minutes" ? "a number in [0, 1e6]" : "a number in [0, 100]");
+      if (a == "--minutes") minutes = *x;
+      else if (a == "--finetune") finetune = *x;
+      else learning_rate = float(*x);
+    } else if (a == "--threads") {
+      const auto n = whole(0, 1024);
+      if (!n) return bad("a whole number 0..1024 (0: all)");
+      threads = *n;
+    } else if (a == "--texels" || a == "--epochs" || a == "--directions" || a == "--holdout" || a == "--batch" ||
+               a == "--early-stop" || a == "--patience" || a == "--throughput" || a == "--runs") {
+      const bool positive = a == "--texels" || a == "--epochs" || a == "--batch" || a == "--runs";
+      const std::uint64_t hi = a == "--texels" ? 65536 : a == "--directions" ? 6561 : a == "--runs" ? 1000 : 1'000'000'000;
+      const auto n = whole(positive ? 1 : 0, hi);
+      if (!n) {
+        const std::string range = "a whole number " + std::to_string(positive ? 1 : 0) + ".." + std::to_string(hi);
+        return bad(range.c_str());
       }
-    } catch (const std::exception&) {
-      std::fprintf(stderr, "option %s: '%s' is not a number\n", a.c_str(), v.c_str());
+      const auto u = std::uint32_t(*n);
+      if (a == "--texels") texels = u;
+      else if (a == "--epochs") epochs = u;
+      else if (a == "--directions") directions = u;
+      else if (a == "--holdout") holdout = u;
+      else if (a == "--batch") batch = u;
+      else if (a == "--early-stop") early_stop = u;
+      else if (a == "--patience") patience = u;
+      else if (a == "--throughput") throughput = u;
+      else runs = u;
+    } else {
+      std::fprintf(stderr, "weft-bench-btf-train: unknown option %s (--help lists them)\n", a.c_str());
       return 2;
     }
   }
   if ((optimizer != "sgd" && optimizer != "adam") || (schedule != "constant" && schedule != "cosine") || batch == 0 ||
       early_stop == 1 || runs == 0) {
-    std::fprintf(stderr, "--optimizer sgd|adam, --schedule constant|cosine, --batch >= 1, --early-stop 0 or >= 2, --runs >= 1\n");
+    std::fprintf(stderr, "weft-bench-btf-train: --optimizer sgd|adam, --schedule constant|cosine, --batch >= 1, --early-stop 0 or "
+                         ">= 2, --runs >= 1\n");
     return 2;
   }
   // The data: the synthetic twill at the paper's sampling, cached as .btfraw.
   Btf btf;
   const auto t_data = std::chrono::steady_clock::now();
-  if (!cache.empty() && std::filesystem::exists(cache)) {
+  std::error_code cache_error;  // exists() without it threw on a symlink loop (terminate; issue 33)
+  if (!cache.empty() && std::filesystem::exists(cache, cache_error)) {
     auto loaded = load_btf(cache);
     if (!loaded) return std::fprintf(stderr, "%s\n", loaded.error().what().c_str()), 1;
     btf = std::move(*loaded);

@@ -30,9 +30,11 @@
 #include <span>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
+#include <weft/args.h>
 import weft.core;
 import weft.feature;
 import weft.renderer;
@@ -460,6 +462,10 @@ int main(int argc, char** argv) {
       "  no section named: all three\n";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    if ((a == "--photo" || a == "--scene" || a == "--object") && i + 1 < argc && argv[i + 1][0] == '\0') {
+      std::fprintf(stderr, "weft-bench-fur: %s was given an empty value\n", a.c_str());
+      return 2;
+    }
     if (a == "--accuracy") {
       do_accuracy = true;
     } else if (a == "--speed") {
@@ -474,16 +480,26 @@ int main(int argc, char** argv) {
       std::printf("%s", usage);
       return 0;
     } else if (a == "--frames" && i + 1 < argc) {
-      frames = std::max(1, std::atoi(argv[++i]));
+      // Digits only (issue 33: atoi read "abc" as 0 and ran with 1 frame).
+      const auto n = weft::args::whole(argv[++i], 1, 100000);
+      if (!n) {
+        std::fprintf(stderr, "weft-bench-fur: --frames expects a whole number 1..100000, got '%s'\n", argv[i]);
+        return 2;
+      }
+      frames = int(*n);
     } else if (a == "--size" && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &width, &height) != 2 || width == 0 || height == 0 || width > 8192 ||
-          height > 8192) {
+      const auto size = weft::args::size(argv[++i], 8192);
+      if (!size) {
         std::fprintf(stderr, "weft-bench-fur: --size expects WxH with sides 1..8192, got '%s'\n", argv[i]);
         return 2;
       }
+      std::tie(width, height) = *size;
       size_given = true;
     } else if (a == "--photo" && i + 1 < argc) {
       photo_path = argv[++i];
+    } else if (i + 1 == argc && (a == "--frames" || a == "--size" || a == "--photo" || a == "--scene" || a == "--object")) {
+      std::fprintf(stderr, "weft-bench-fur: %s needs a value\n%s", a.c_str(), usage);
+      return 2;
     } else {
       std::fprintf(stderr, "weft-bench-fur: unknown argument '%s'\n%s", a.c_str(), usage);
       return 2;

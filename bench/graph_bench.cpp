@@ -24,6 +24,7 @@
 #include <span>
 #include <string>
 #include <vector>
+#include <weft/args.h>
 import weft.core;
 import weft.gpu;
 import weft.graph;
@@ -525,13 +526,20 @@ int main(int argc, char** argv) {
       std::printf("%s", usage_text);
       return 0;
     } else if (arg == "--runs" && has_value) {
-      runs = std::max(7, std::atoi(argv[++i]));
+      // Digits only (issue 33: atoi read "abc" as 0, silently 7 runs).
+      const auto n = weft::args::whole(argv[++i], 1, 100000);
+      if (!n) {
+        std::fprintf(stderr, "weft-bench-graph: --runs expects a whole number 1..100000 (at least 7 are run), got '%s'\n", argv[i]);
+        return 2;
+      }
+      runs = std::max(7, int(*n));
     } else if (arg == "--sizes" && has_value) {
       if (!parse_list(argv[++i], sizes, [](const std::string& item, int& n) {
-            n = std::atoi(item.c_str());
-            return n > 0;
+            const auto v = weft::args::whole(item, 1, 1'000'000);
+            n = int(v.value_or(0));
+            return v.has_value();
           })) {
-        std::fprintf(stderr, "--sizes: a comma-separated list of pass counts above 0, got '%s'\n", argv[i]);
+        std::fprintf(stderr, "weft-bench-graph: --sizes: a comma-separated list of pass counts 1..1000000, got '%s'\n", argv[i]);
         return 2;
       }
     } else if (arg == "--no-device") {
@@ -549,7 +557,7 @@ int main(int argc, char** argv) {
             else return false;
             return true;
           })) {
-        std::fprintf(stderr, "--builds: a comma-separated list of first, default, new, changed, unchanged, got '%s'\n", argv[i]);
+        std::fprintf(stderr, "weft-bench-graph: --builds: a comma-separated list of first, default, new, changed, unchanged, got '%s'\n", argv[i]);
         return 2;
       }
     } else if (arg == "--shapes" && has_value) {
@@ -560,11 +568,11 @@ int main(int argc, char** argv) {
             else return false;
             return true;
           })) {
-        std::fprintf(stderr, "--shapes: a comma-separated list of chain, dag, dag-long, got '%s'\n", argv[i]);
+        std::fprintf(stderr, "weft-bench-graph: --shapes: a comma-separated list of chain, dag, dag-long, got '%s'\n", argv[i]);
         return 2;
       }
     } else {
-      std::fprintf(stderr, "unknown or incomplete argument '%s'\n%s", argv[i], usage_text);
+      std::fprintf(stderr, "weft-bench-graph: unknown or incomplete argument '%s'\n%s", argv[i], usage_text);
       return 2;
     }
   }

@@ -23,10 +23,12 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <sys/resource.h>
+#include <weft/args.h>
 import weft.core;
 import weft.feature;
 import weft.gpu;
@@ -637,23 +639,47 @@ int main(int argc, char** argv) {
   Options o;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--runs" && i + 1 < argc) o.runs = std::max(1, std::atoi(argv[++i]));
-    else if (a == "--head" && i + 1 < argc) o.head = argv[++i];
-    else if (a == "--size" && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &o.width, &o.height) != 2 || !o.width || !o.height) {
-        std::fprintf(stderr, "--size expects WxH\n");
-        return 2;
+    // Digits only, sizes 1..8192, sections by name (issue 33: atoi read "abc" as 1 run, sscanf
+    // "-1x-1" as 4294967295 pixels, and an unknown section ran nothing).
+    const auto bad = [&](const std::string& why) {
+      std::fprintf(stderr, "weft-bench-skin: %s (see --help)\n", why.c_str());
+      return 2;
+    };
+    static const std::set<std::string> sections = {"conventions", "range", "size", "samples", "time",
+                                                   "mesh", "frame", "curvature", "image"};
+    if (a == "--runs" || a == "--head" || a == "--size") {
+      if (i + 1 >= argc) return bad(a + " needs a value");
+      const std::string v = argv[++i];
+      if (v.empty()) return bad(a + " was given an empty value");
+      if (a == "--head") {
+        o.head = v;
+      } else if (a == "--runs") {
+        const auto n = weft::args::whole(v, 1, 10000);
+        if (!n) return bad("--runs '" + v + "': expected a whole number 1..10000");
+        o.runs = int(*n);
+      } else {
+        const auto size = weft::args::size(v, 8192);
+        if (!size) return bad("--size '" + v + "': expected WxH with sides 1..8192");
+        std::tie(o.width, o.height) = *size;
       }
     } else if (a == "-h" || a == "--help") {
       std::printf("weft-bench-skin [conventions range size samples time mesh frame curvature image] [--runs N] [--head PATH] [--size WxH]\n");
       return 0;
     } else if (a.starts_with("-")) {
-      std::fprintf(stderr, "unknown option %s\n", a.c_str());
-      return 2;
-    } else {
+      return bad("unknown option " + a);
+    } else if (sections.contains(a)) {
       o.sections.insert(a);
+    } else {
+      return bad("unknown section '" + a + "'");
     }
   }
+  // A --head that is not a mesh is named before the tables (issue 33: it surfaced as a table row
+  // after minutes of other sections, and a FIFO would have waited).
+  if (!o.head.empty())
+    if (auto head = scene::load_mesh(o.head); !head) {
+      std::fprintf(stderr, "weft-bench-skin: --head: %s\n", head.error().what().c_str());
+      return 1;
+    }
   std::printf("# weft-bench-skin\n\nCPU: %u hardware threads.\n", std::thread::hardware_concurrency());
   if (o.wants("conventions")) conventions_table();
   if (o.wants("range")) range_table();

@@ -23,6 +23,7 @@
 #include <vector>
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
+#include <weft/args.h>
 import weft.core;
 import weft.feature;
 import weft.cluster;
@@ -73,12 +74,28 @@ int main(int argc, char** argv) {
   std::filesystem::path teapot = std::filesystem::path(shared ? shared : WEFT_DEFAULT_SHARED_DATA) / "meshes/teapot/teapot.obj";
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
-    if (arg == "--resolution" && i + 1 < argc) resolution = std::uint32_t(std::atoi(argv[++i]));
-    else if (arg == "--threads" && i + 1 < argc) threads = std::size_t(std::atoi(argv[++i]));
-    else if (arg == "--teapot" && i + 1 < argc) teapot = argv[++i];
-    else if (arg == "--quick") quick = true, resolution = 16;
-    else if (arg == "--only" && i + 1 < argc) only = argv[++i];
+    // Digits only, within a range (issue 33: atoi read "-1" as 4294967295 directions).
+    if ((arg == "--resolution" || arg == "--threads") && i + 1 < argc) {
+      const auto n = weft::args::whole(argv[++i], arg == "--threads" ? 0 : 1, 1024);
+      if (!n) {
+        std::fprintf(stderr, "weft-bench-ssdf: %s expects a whole number %s..1024, got '%s'\n", arg.c_str(),
+                     arg == "--threads" ? "0" : "1", argv[i]);
+        return 2;
+      }
+      if (arg == "--threads") threads = std::size_t(*n);
+      else resolution = std::uint32_t(*n);
+    } else if (arg == "--teapot" && i + 1 < argc) teapot = argv[++i];
+    else if (arg == "-h" || arg == "--help") {
+      std::printf("usage: weft-bench-ssdf [--resolution N] [--threads T] [--teapot PATH] [--quick] [--only TEXT]\n"
+                  "       weft-bench-ssdf --lighting [--size PIXELS] [--samples N] [--runs R] [--teapot PATH] [--quick]\n");
+      return 0;
+    } else if (arg == "--quick") quick = true, resolution = 16;
+    else if ((arg == "--only" || arg == "--teapot") && i + 1 < argc && argv[i + 1][0] == '\0') {
+      std::fprintf(stderr, "weft-bench-ssdf: %s was given an empty value\n", arg.c_str());
+      return 2;
+    } else if (arg == "--only" && i + 1 < argc) only = argv[++i];
     else {
+      std::fprintf(stderr, "weft-bench-ssdf: unknown or incomplete argument '%s'\n", argv[i]);
       std::fprintf(stderr, "usage: weft-bench-ssdf [--resolution N] [--threads T] [--teapot PATH] [--quick] [--only TEXT]\n");
       return 2;
     }
@@ -310,12 +327,19 @@ int lighting_bench(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--lighting") continue;
-    if (arg == "--size" && i + 1 < argc) size = std::uint32_t(std::atoi(argv[++i]));
-    else if (arg == "--samples" && i + 1 < argc) samples = std::uint32_t(std::atoi(argv[++i]));
-    else if (arg == "--runs" && i + 1 < argc) runs = std::uint32_t(std::atoi(argv[++i]));
-    else if (arg == "--teapot" && i + 1 < argc) teapot = argv[++i];
+    if ((arg == "--size" || arg == "--samples" || arg == "--runs") && i + 1 < argc) {
+      const std::uint64_t hi = arg == "--size" ? 8192 : arg == "--samples" ? 1'000'000 : 1000;
+      const auto n = weft::args::whole(argv[++i], 1, hi);
+      if (!n) {
+        std::fprintf(stderr, "weft-bench-ssdf --lighting: %s expects a whole number 1..%llu, got '%s'\n", arg.c_str(),
+                     static_cast<unsigned long long>(hi), argv[i]);
+        return 2;
+      }
+      (arg == "--size" ? size : arg == "--samples" ? samples : runs) = std::uint32_t(*n);
+    } else if (arg == "--teapot" && i + 1 < argc) teapot = argv[++i];
     else if (arg == "--quick") quick = true;
     else {
+      std::fprintf(stderr, "weft-bench-ssdf --lighting: unknown or incomplete argument '%s'\n", argv[i]);
       std::fprintf(stderr, "usage: weft-bench-ssdf --lighting [--size PIXELS] [--samples N] [--runs R] [--teapot PATH] [--quick]\n");
       return 2;
     }

@@ -14,8 +14,10 @@
 #include <expected>
 #include <filesystem>
 #include <fstream>
+#include <span>
 #include <string>
 #include <vector>
+#include <weft/args.h>
 import weft.core;
 import weft.gpu;
 import weft.image;
@@ -91,13 +93,15 @@ int run(int argc, char** argv) {
       std::printf("usage: weft-custom-feature SCENE.json [-o out.png] [--size WxH] [--dot graph.dot] [--list] [--check]\n");
       return 0;
     }
+    if (a.empty() || ((a == "-o" || a == "--output" || a == "--dot" || a == "--size") && i + 1 < argc && argv[i + 1][0] == '\0'))
+      return failed(weft::format("{} an empty value", a.empty() ? "an argument is" : a + " was given"));
     if (a == "--check") check = true;
     else if (a == "--list") list = true;
     else if ((a == "-o" || a == "--output") && i + 1 < argc) output = argv[++i];
     else if (a == "--dot" && i + 1 < argc) dot_path = argv[++i];
     else if (a == "--size" && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &width, &height) != 2 || width == 0 || height == 0)
-        return failed(weft::format("--size expects WxH, got '{}'", argv[i]));
+      if (!weft::args::size_into(argv[++i], 8192, width, height))
+        return failed(weft::format("--size expects WxH with sides 1..8192, got '{}'", argv[i]));
     } else if (!a.starts_with("-") && scene_path.empty()) scene_path = a;
     else return failed(weft::format("unknown argument '{}' (see --help)", a));
   }
@@ -124,7 +128,9 @@ int run(int argc, char** argv) {
   if (!dot_path.empty()) {
     auto report = renderer->describe(*scene, options);
     if (!report) return failed(report.error().what());
-    std::ofstream(dot_path) << report->dot;
+    // Atomically, as weft writes every file: an unwritable path, a FIFO or a full disk is an error.
+    if (auto ok = weft::write_file_atomically(dot_path, {std::as_bytes(std::span(report->dot))}, "DOT graph"); !ok)
+      return failed(ok.error().what());
     std::printf("wrote %s\n", dot_path.string().c_str());
   }
   auto frame = renderer->render(*scene, options);

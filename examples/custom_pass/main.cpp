@@ -13,8 +13,10 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <span>
 #include <string>
 #include <vector>
+#include <weft/args.h>
 import weft.core;
 import weft.gpu;
 import weft.graph;
@@ -70,16 +72,20 @@ int run(int argc, char** argv) {
   bool check = false;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--size") == 0 && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &width, &height) != 2 || width == 0 || height == 0) {
-        std::fprintf(stderr, "--size wants WxH, e.g. 640x360\n");
+      if (!weft::args::size_into(argv[++i], 8192, width, height)) {
+        std::fprintf(stderr, "weft-custom-pass: --size wants WxH with sides 1..8192 (e.g. 640x360), got '%s'\n", argv[i]);
         return 2;
       }
     } else if (std::strcmp(argv[i], "--dot") == 0 && i + 1 < argc) {
       dot_path = argv[++i];
     } else if (std::strcmp(argv[i], "--check") == 0) {
       check = true;
+    } else if (std::strcmp(argv[i], "-h") == 0 || std::strcmp(argv[i], "--help") == 0) {
+      std::printf("usage: weft-custom-pass [output.png] [--size WxH] [--dot graph.dot] [--check]\n");
+      return 0;
     } else if (argv[i][0] == '-') {
-      std::fprintf(stderr, "usage: %s [output.png] [--size WxH] [--dot graph.dot] [--check]\n", argv[0]);
+      std::fprintf(stderr, "weft-custom-pass: unknown or incomplete argument '%s'\n"
+                           "usage: weft-custom-pass [output.png] [--size WxH] [--dot graph.dot] [--check]\n", argv[i]);
       return 2;
     } else {
       output = argv[i];
@@ -148,7 +154,9 @@ int run(int argc, char** argv) {
   if (!compiled) return std::fprintf(stderr, "%s\n", compiled.error().to_string().c_str()), 1;
   std::printf("%s", compiled->dump().c_str());
   if (!dot_path.empty()) {
-    std::ofstream(dot_path) << compiled->to_dot();
+    const std::string dot = compiled->to_dot();
+    if (auto ok = write_file_atomically(dot_path, {std::as_bytes(std::span(dot))}, "DOT graph"); !ok)
+      return std::fprintf(stderr, "weft-custom-pass: %s\n", ok.error().what().c_str()), 1;
     std::printf("wrote %s (render with: dot -Tsvg %s -o graph.svg)\n", dot_path.c_str(), dot_path.c_str());
   }
 

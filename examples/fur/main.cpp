@@ -21,8 +21,10 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <system_error>
 #include <vector>
 #include <nlohmann/json.hpp>
+#include <weft/args.h>
 import weft.core;
 import weft.feature;
 import weft.gpu;
@@ -103,6 +105,10 @@ int run(int argc, char** argv) {
   bool check = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    if ((a == "--out" || a == "--photo" || a == "--only" || a == "--write-synthetic") && i + 1 < argc && argv[i + 1][0] == '\0') {
+      std::fprintf(stderr, "weft-fur-example: %s was given an empty value\n", a.c_str());
+      return 2;
+    }
     if (a == "--out" && i + 1 < argc) {
       out = argv[++i];
     } else if (a == "--photo" && i + 1 < argc) {
@@ -110,8 +116,8 @@ int run(int argc, char** argv) {
     } else if (a == "--only" && i + 1 < argc) {
       only = argv[++i];
     } else if (a == "--size" && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &width, &height) != 2 || width == 0 || height == 0) {
-        std::fprintf(stderr, "--size wants WxH, e.g. 512x512\n");
+      if (!weft::args::size_into(argv[++i], 8192, width, height)) {
+        std::fprintf(stderr, "weft-fur-example: --size wants WxH with sides 1..8192 (e.g. 512x512), got '%s'\n", argv[i]);
         return 2;
       }
     } else if (a == "--check") {
@@ -123,14 +129,31 @@ int run(int argc, char** argv) {
         return 1;
       }
       return 0;
+    } else if (a == "-h" || a == "--help") {
+      std::printf("usage: weft-fur-example [--out DIR] [--photo PATH] [--size WxH] [--only NAME] [--check]\n"
+                  "       weft-fur-example --write-synthetic PATH\n");
+      return 0;
     } else {
-      std::fprintf(stderr, "usage: weft-fur-example [--out DIR] [--photo PATH] [--size WxH] [--only NAME] [--check]\n"
-                           "       weft-fur-example --write-synthetic PATH\n");
+      std::fprintf(stderr, "weft-fur-example: unknown or incomplete argument '%s'\n"
+                           "usage: weft-fur-example [--out DIR] [--photo PATH] [--size WxH] [--only NAME] [--check]\n"
+                           "       weft-fur-example --write-synthetic PATH\n", a.c_str());
       return 2;
     }
   }
   if (check) width = height = std::min(width, 96u);
-  fs::create_directories(out);
+  // A photo that cannot be read is one error before any work (issue 33: each of the images
+  // reported it again, 25 lines), and a folder that cannot be made is named, not thrown.
+  if (!photo.empty())
+    if (auto ok = image::load_ldr(photo); !ok) {
+      std::fprintf(stderr, "weft-fur-example: --photo: %s\n", ok.error().what().c_str());
+      return 1;
+    }
+  std::error_code made_error;
+  const bool made_out = fs::create_directories(out, made_error);
+  if (made_error) {
+    std::fprintf(stderr, "weft-fur-example: --out '%s': %s\n", out.string().c_str(), made_error.message().c_str());
+    return 1;
+  }
   if (photo.empty()) photo = first_existing({shared_data() / "fur" / "cream_long.jpg"});
   if (photo.empty() || check) {
     photo = out / "synthetic_fur.png";
@@ -238,7 +261,8 @@ int run(int argc, char** argv) {
   }
 
   std::printf("| image | vertices | layers | shell_fur GPU ms | frame ms |\n|---|---:|---:|---:|---:|\n");
-  int failures = 0;
+  int failures = 0, rendered = 0;
+  std::string names;
   for (const auto& make : shots) {
     auto shot = make();
     if (!shot) {
@@ -246,7 +270,9 @@ int run(int argc, char** argv) {
       ++failures;
       continue;
     }
+    names += (names.empty() ? "" : ", ") + shot->name;
     if (!only.empty() && shot->name.find(only) == std::string::npos) continue;
+    ++rendered;
     const scene::Scene s = make_scene(*shot, width, height);
     auto frame = renderer->render(s);
     if (!frame) {
@@ -266,6 +292,11 @@ int run(int argc, char** argv) {
     }
     std::printf("| %s | %zu | %d | %.2f | %.1f |\n", file.string().c_str(), shot->mesh.vertex_count(),
                 shot->material.value("layers", 15), fur_ms, frame->stats.cpu_frame_ms);
+  }
+  if (!only.empty() && rendered == 0) {
+    std::fprintf(stderr, "weft-fur-example: --only '%s' names none of the images (%s)\n", only.c_str(), names.c_str());
+    if (made_out) fs::remove(out, made_error);  // the folder this run made, still empty
+    return 2;
   }
   if (check) {
     const auto messages = instance->take_validation_messages();

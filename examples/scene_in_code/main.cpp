@@ -8,6 +8,7 @@
 #include <string>
 #include <utility>
 #include <vector>
+#include <weft/args.h>
 import weft.core;
 import weft.gpu;
 import weft.image;
@@ -87,10 +88,17 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--size" && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &width, &height) != 2 || !width || !height) {
-        std::fprintf(stderr, "weft-scene-in-code: --size expects WxH\n");
+      if (!weft::args::size_into(argv[++i], 8192, width, height)) {
+        std::fprintf(stderr, "weft-scene-in-code: --size expects WxH with sides 1..8192, got '%s'\n", argv[i]);
         return 2;
       }
+    } else if (arg == "-h" || arg == "--help") {
+      std::printf("usage: weft-scene-in-code [out.png] [--size WxH]\n");
+      return 0;
+    } else if (arg.starts_with("-")) {  // not a file name: `--size` without its value, a typo
+      std::fprintf(stderr, "weft-scene-in-code: unknown or incomplete argument '%s'\nusage: weft-scene-in-code [out.png] [--size WxH]\n",
+                   arg.c_str());
+      return 2;
     } else {
       output = arg;
     }

@@ -27,6 +27,7 @@
 #include <vector>
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
+#include <weft/args.h>
 import weft.core;
 import weft.feature;
 import weft.gpu;
@@ -388,19 +389,33 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--check") o.check = true;
-    else if (a == "--head" && i + 1 < argc) o.head = argv[++i];
+    else if (a == "--head" && i + 1 < argc && argv[i + 1][0] == '\0') {
+      std::fprintf(stderr, "weft-skin-example: --head was given an empty value\n");
+      return 2;
+    } else if (a == "--head" && i + 1 < argc) o.head = argv[++i];
     else if (a == "--size" && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &o.width, &o.height) != 2 || !o.width || !o.height) {
-        std::fprintf(stderr, "weft-skin-example: --size expects WxH\n");
+      if (!weft::args::size_into(argv[++i], 8192, o.width, o.height)) {
+        std::fprintf(stderr, "weft-skin-example: --size expects WxH with sides 1..8192, got '%s'\n", argv[i]);
         return 2;
       }
+    } else if (a == "-h" || a == "--help") {
+      std::printf("usage: weft-skin-example [out-dir] [--size WxH] [--head PATH] [--check]\n");
+      return 0;
     } else if (a.starts_with("-")) {
-      std::fprintf(stderr, "usage: weft-skin-example [out-dir] [--size WxH] [--head PATH] [--check]\n");
+      std::fprintf(stderr, "weft-skin-example: unknown or incomplete argument '%s'\n"
+                           "usage: weft-skin-example [out-dir] [--size WxH] [--head PATH] [--check]\n", a.c_str());
       return 2;
     } else {
       o.out = a;
     }
   }
+  // A --head that is not a mesh is named before any work (issue 33: a missing one fell back to
+  // another head silently, a FIFO, a device or a text file wrote every LUT first, a symlink loop threw).
+  if (!o.head.empty())
+    if (auto head = scene::load_mesh(o.head); !head) {
+      std::fprintf(stderr, "weft-skin-example: --head: %s\n", head.error().what().c_str());
+      return 1;
+    }
   if (auto ok = run(o); !ok) {
     std::fprintf(stderr, "weft-skin-example: %s\n", ok.error().what().c_str());
     return 1;

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 #include "weft-triangle_shaders.h"
+#include <weft/args.h>
 import weft.core;
 import weft.gpu;
 import weft.image;
@@ -174,12 +175,16 @@ int main(int argc, char** argv) {
     if ((arg == "-o" || arg == "--output") && i + 1 < argc) {
       output = argv[++i];
     } else if (arg == "--size" && i + 1 < argc) {
-      if (std::sscanf(argv[++i], "%ux%u", &width, &height) != 2 || width == 0 || height == 0) {
-        std::fprintf(stderr, "weft-triangle: --size expects WxH, got '%s'\n", argv[i]);
+      if (!weft::args::size_into(argv[++i], 8192, width, height)) {
+        std::fprintf(stderr, "weft-triangle: --size expects WxH with sides 1..8192, got '%s'\n", argv[i]);
         return 2;
       }
+    } else if (arg == "-h" || arg == "--help") {
+      std::printf("usage: weft-triangle [-o out.png] [--size WxH]\n");
+      return 0;
     } else {
-      std::fprintf(stderr, "usage: weft-triangle [-o out.png] [--size WxH]\n");
+      std::fprintf(stderr, "weft-triangle: unknown or incomplete argument '%s'\nusage: weft-triangle [-o out.png] [--size WxH]\n",
+                   arg.c_str());
       return 2;
     }
   }

@@ -11,6 +11,7 @@ module;
 #include <string_view>
 #include <vector>
 #include <nlohmann/json.hpp>
+#include <weft/text_input.h>
 module weft.farm;
 import weft.core;
 import weft.tradeoff;
@@ -289,6 +290,7 @@ Result<SweepSpec> parse_sweep_spec(std::string_view text, std::string_view sourc
 }
 
 Result<SweepSpec> read_sweep_spec(const std::filesystem::path& path) {
+  if (auto why = binary_text_input(path, "sweep spec")) return fail(ErrorKind::Parse, "{}", *why);
   auto bytes = read_input_file(path, "sweep spec");
   if (!bytes) return std::unexpected(bytes.error());
   return parse_sweep_spec(std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()), path.string(),

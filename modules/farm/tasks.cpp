@@ -13,6 +13,7 @@ module;
 #include <vector>
 #include <nlohmann/json.hpp>
 #include <weft/try.h>
+#include <weft/text_input.h>
 module weft.farm;
 import weft.core;
 
@@ -125,6 +126,7 @@ Result<TaskList> parse_task_list(std::string_view text, std::string_view source)
 }
 
 Result<TaskList> read_task_list(const std::filesystem::path& path) {
+  if (auto why = binary_text_input(path, "task list")) return fail(ErrorKind::Parse, "{}", *why);
   auto bytes = read_input_file(path, "task list");
   if (!bytes) return std::unexpected(bytes.error());
   return parse_task_list(std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()), path.string());

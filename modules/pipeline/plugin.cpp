@@ -37,6 +37,9 @@ Result<LoadedPlugin> load_plugin(const std::filesystem::path& path) {
   if (ec || !std::filesystem::exists(status)) return fail(ErrorKind::NotFound, "plugin '{}': no such file", file);
   if (!std::filesystem::is_regular_file(status))
     return fail(ErrorKind::InvalidArgument, "plugin '{}': not a regular file", file);
+  // A "regular file" that cannot be read without waiting (/proc/kmsg) blocked dlopen for ever
+  // (issue 33); check_input_file reads an empty-looking file once, without waiting.
+  if (auto readable = check_input_file(path, "plugin"); !readable) return std::unexpected(readable.error());
   // RTLD_NOW: a plugin missing a symbol fails here, not in the middle of a frame.
   void* handle = dlopen(canonical.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (!handle) {

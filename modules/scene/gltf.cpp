@@ -25,6 +25,7 @@ module;
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include "gltf_loader.h"
+#include <weft/text_input.h>
 module weft.scene;
 import weft.core;
 
@@ -759,6 +760,7 @@ namespace detail {
 
 Result<GltfScene> read_gltf(const std::filesystem::path& path) {
   try {
+    if (auto why = weft::binary_text_input(path, "glTF file", "glTF")) return fail(ErrorKind::Parse, "{}", *why);
     auto bytes = weft::read_input_file(path, "glTF file");
     if (!bytes) return std::unexpected(bytes.error());
     if (bytes->empty()) return fail(ErrorKind::Parse, "glTF '{}': the file is empty", path.string());

@@ -15,6 +15,7 @@ module;
 #include <vector>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <weft/text_input.h>
 module weft.scene;
 import weft.core;
 
@@ -110,6 +111,7 @@ Result<void> check_json_structure(std::string_view text, std::size_t max_depth) 
 namespace weft::scene {
 Result<void> check_json_text(std::string_view text, std::size_t max_depth) { return detail::check_json_structure(text, max_depth); }
 Result<std::string> read_text_file(const std::filesystem::path& path, std::string_view what) {
+  if (auto why = weft::binary_text_input(path, what)) return fail(ErrorKind::Parse, "{}", *why);
   auto bytes = weft::read_input_file(path, what);
   if (!bytes) return std::unexpected(bytes.error());
   return std::string(reinterpret_cast<const char*>(bytes->data()), bytes->size());

@@ -20,6 +20,7 @@ module;
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
+#include <weft/text_input.h>
 module weft.scene;
 import weft.core;
 
@@ -357,6 +358,7 @@ Result<SceneDesc> parse_scene(std::string_view json_text, const std::filesystem:
 }
 
 Result<SceneDesc> load_scene_file(const std::filesystem::path& path) {
+  if (auto why = weft::binary_text_input(path, "scene file")) return fail(ErrorKind::Parse, "{}", *why);
   auto bytes = weft::read_input_file(path, "scene file");
   if (!bytes) return std::unexpected(bytes.error());
   const std::string_view text(reinterpret_cast<const char*>(bytes->data()), bytes->size());

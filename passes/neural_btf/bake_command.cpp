@@ -89,7 +89,10 @@ std::function<int()> add_btf_bake(CLI::App& command) {
   sub->add_option("--finetune", a->finetune, "Fraction of the training spent on decoder + latents alone, [0, 1]")
       ->capture_default_str();
   sub->add_option("--seed", a->seed, "Seed of the synthetic data, the clustering and the training")->capture_default_str();
-  sub->add_option("--threads", a->threads, "Threads (0: all; the result does not depend on it)")->capture_default_str();
+  // At most 1024 (issue 33: --threads 100000 started 100,000 threads and never finished).
+  sub->add_option("--threads", a->threads, "Threads (0: all; the result does not depend on it)")
+      ->capture_default_str()
+      ->check(CLI::Range(std::size_t(0), std::size_t(1024)));
   sub->add_option("--checkpoint", a->checkpoint, "Checkpoint file, written every epoch");
   sub->add_flag("--resume", a->resume, "Continue from --checkpoint when it exists");
   sub->add_flag("--compact", a->compact, "Store fp16 weights and latents, 8/16-bit ids, 8-bit scales");

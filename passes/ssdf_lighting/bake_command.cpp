@@ -45,7 +45,9 @@ std::function<int()> add_ssdf_bake(CLI::App& command) {
   sub->add_option("--coefficients", a->coefficients, "Coefficient storage: fp32, fp16 or 8bit")->capture_default_str();
   sub->add_flag("--no-center", a->no_center, "Plain SVD per cluster (the paper), no mean subtracted");
   sub->add_flag("--half-basis", a->half_basis, "Store cluster means and bases as fp16 (they dominate the size)");
-  sub->add_option("--threads", a->threads, "Threads (0: all)")->capture_default_str();
+  sub->add_option("--threads", a->threads, "Threads (0: all)")
+      ->capture_default_str()
+      ->check(CLI::Range(std::size_t(0), std::size_t(1024)));
   return [a, energy] {
             auto invalid = [](std::string message) {
               return bake_failed("ssdf", Error{ErrorKind::InvalidArgument, std::move(message)});

@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 #include "../support/run_command.h"
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <array>
 #include <cstdio>
@@ -231,9 +232,10 @@ TEST_CASE("issue 21: bad numbers and words on the command line are named, never 
   struct Case {
     std::string args, expect;
   };
-  for (const auto& c : {Case{"render " + s + png + " --exposure nan", "--exposure nan must be a number in (0, 1e6]"},
+  // NaN and infinity are refused by the command line itself since issue 33 (every floating-point option).
+  for (const auto& c : {Case{"render " + s + png + " --exposure nan", "--exposure: 'nan' is not a finite number"},
                         Case{"render " + s + png + " --exposure -1", "--exposure -1"},
-                        Case{"render " + s + png + " --exposure inf", "--exposure inf"},
+                        Case{"render " + s + png + " --exposure inf", "--exposure: 'inf' is not a finite number"},
                         Case{"render " + s + png + " --exposure 0", "--exposure 0"},
                         Case{"render " + s + png + " --size -1x-1", "got '-1x-1'"},
                         Case{"render " + s + png + " --size 16384x16384", "each side 1 to 8192"},
@@ -510,4 +512,141 @@ TEST_CASE("weft graph check: 0 for a frame that compiles, 1 with every problem; 
   CHECK_MESSAGE(env.exit_code == 0, env.output);
   CHECK(contains(env.output, "WEFT_PLUGIN_PATH: plugin '"));
   std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("issue 33: empty values, negative or huge unsigned numbers, NaN and unknown words are named before any work") {
+  const auto dir = temp_dir();
+  std::ofstream(dir / "s.json") << scene;
+  std::ofstream(dir / "session.txt") << "orbit 10 5\nquality ultra\n";
+  REQUIRE(::mkfifo((dir / "pipeline.json").c_str(), 0600) == 0);
+  const std::string s = (dir / "s.json").string(), png = " -o " + (dir / "x.png").string();
+  const std::string btf = "bake btf --synthetic 4x4 --epochs 1 -o " + (dir / "x.wbtf").string();
+  struct Case {
+    std::string args, expect;
+  };
+  for (const auto& c : {
+           // An empty value was "not given": the frame rendered without the size or the pipeline.
+           Case{"render " + s + png + " --size ''", "weft: --size was given an empty value"},
+           Case{"render " + s + png + " --pipeline=", "weft: --pipeline was given an empty value"},
+           Case{"render ''" + png, "weft: argument 2 is empty"},
+           // CLI11 read unsigned values with strtoull: -1 was 4294967295, 010 eight, 1e23 the largest.
+           Case{"render " + s + png + " --frames -1", "--frames: '-1' is not a whole number (decimal digits only)"},
+           Case{"bake ssdf " + s + " -o " + (dir / "x.wssdf").string() + " --seed 99999999999999999999999", "is too large"},
+           // NaN passed every CLI::Range; --budget-ms nan rendered without a budget.
+           Case{"render " + s + png + " --budget-ms nan", "--budget-ms: 'nan' is not a finite number"},
+           Case{btf + " --minutes inf", "--minutes: 'inf' is not a finite number"},
+           Case{btf + " --threads 100000", "--threads: Value 100000 not in range 0 to 1024"},  // it started 100,000 threads
+           // CLI11 said "A subcommand is required" for each of these.
+           Case{"--frobnicate info", "weft: unknown option '--frobnicate' before the command"},
+           Case{"bake nosuch", "weft bake: unknown bake 'nosuch' (skin-lut"},
+           Case{"farm nosuch", "weft farm: unknown farm 'nosuch' (plan, run"},
+           // Before the window opens (no display here): the script's quality and a --pipeline FIFO.
+           Case{"view " + s + " --script " + (dir / "session.txt").string(), "quality takes low, medium, high or reference, got 'ultra'"},
+           Case{"view " + s + " --pipeline " + (dir / "pipeline.json").string(), "is a FIFO, not a regular file"}}) {
+    const auto r = run_command("env -u DISPLAY timeout 60 " + cli + " " + c.args + " </dev/null");
+    CHECK_MESSAGE(r.exit_code != 0, c.args);
+    CHECK_MESSAGE(r.exit_code != 124, "timed out: " << c.args);
+    CHECK_MESSAGE(contains(r.output, c.expect), c.args << " -> " << r.output);
+  }
+  CHECK_FALSE(std::filesystem::exists(dir / "x.png"));
+  CHECK_FALSE(std::filesystem::exists(dir / "x.wbtf"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("issue 33: an output that is read-only, a FIFO, a device or on a full disk is refused and left as it was") {
+  const auto dir = temp_dir();
+  std::ofstream(dir / "s.json") << scene;
+  const std::string s = (dir / "s.json").string();
+  // A read-only file: root's rename replaced it before.
+  const auto ro = dir / "ro.png";
+  std::ofstream(ro) << "precious";
+  std::filesystem::permissions(ro, std::filesystem::perms::owner_read);
+  REQUIRE(::mkfifo((dir / "fifo.png").c_str(), 0600) == 0);
+  REQUIRE(::mkfifo((dir / "fifo.dot").c_str(), 0600) == 0);
+  std::filesystem::create_symlink("/dev/full", dir / "full.dot");
+  struct Case {
+    std::string args, expect;
+  };
+  for (const auto& c : {Case{"render " + s + " -o " + ro.string(), "the file is read-only"},
+                        Case{"render " + s + " -o " + (dir / "fifo.png").string(), "it is a FIFO, not a regular file"},
+                        // An ofstream opened the FIFO and waited for a reader for ever.
+                        Case{"graph " + s + " --dot " + (dir / "fifo.dot").string(), "it is a FIFO, not a regular file"},
+                        Case{"graph " + s + " --dot " + (dir / "full.dot").string(), "it is a character device"}}) {
+    const auto r = run_command("timeout 60 " + cli + " " + c.args + " </dev/null");
+    CHECK_MESSAGE(r.exit_code != 0, c.args);
+    CHECK_MESSAGE(r.exit_code != 124, "timed out: " << c.args);
+    CHECK_MESSAGE(contains(r.output, c.expect), c.args << " -> " << r.output);
+  }
+  std::ifstream in(ro);
+  std::string kept;
+  std::getline(in, kept);
+  CHECK(kept == "precious");
+  CHECK(std::filesystem::is_fifo(dir / "fifo.png"));
+  CHECK(std::filesystem::is_symlink(dir / "full.dot"));
+  // A full disk (a 512-byte file-size limit; lavapipe's memfd memory needs no file size, as
+  // `weft graph` opens no device): an error, and neither the file nor a temporary is left.
+  const auto dot = dir / "big.dot";
+  const auto full = run_command("sh -c 'ulimit -f 1; trap \"\" XFSZ; exec " + cli + " graph " + s + " --dump --dot " + dot.string() + "'");
+  CHECK(full.exit_code != 0);
+  CHECK_MESSAGE(contains(full.output, "cannot write DOT graph '" + dot.string() + "': File too large"), full.output);
+  for (const auto& e : std::filesystem::directory_iterator(dir)) CHECK_MESSAGE(e.path().filename().string().find("big.dot") == std::string::npos, e.path());
+  // A symlink is written through: the target gets the image, the link stays.
+  std::filesystem::create_directories(dir / "renders");
+  std::filesystem::create_symlink("renders/frame.png", dir / "latest.png");
+  const auto linked = run_command(cli + " render " + s + " -o " + (dir / "latest.png").string());
+  CHECK_MESSAGE(linked.exit_code == 0, linked.output);
+  CHECK(std::filesystem::is_symlink(dir / "latest.png"));
+  CHECK(std::filesystem::file_size(dir / "renders" / "frame.png") > 50);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("issue 33: a large binary file given as a scene, a pipeline or a script is refused without reading it all") {
+  // 3 GiB of zeros (sparse: no disk used) took 10 s to read before the parser's "line 1".
+  const auto dir = temp_dir();
+  std::ofstream(dir / "s.json") << scene;
+  for (const char* name : {"big.json", "big.glb", "big.txt"}) {
+    std::ofstream(dir / name).close();
+    std::filesystem::resize_file(dir / name, std::uintmax_t(3) << 30);
+  }
+  const std::string big = (dir / "big.json").string();
+  for (const std::string& args : {"graph check " + big, "graph check " + (dir / "big.glb").string(),
+                                  "graph check " + (dir / "s.json").string() + " --pipeline " + big,
+                                  "view " + (dir / "s.json").string() + " --script " + (dir / "big.txt").string()}) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto r = run_command("env -u DISPLAY timeout 60 " + cli + " " + args);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    CHECK_MESSAGE(r.exit_code != 0, args);
+    CHECK_MESSAGE(contains(r.output, "is not a text file (3072.0 MiB, a NUL byte at offset 0)"), args << " -> " << r.output);
+    CHECK_MESSAGE(seconds < 5.0, args << ": " << seconds << " s");
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("issue 33: benchmarks and examples refuse bad numbers and unknown words before any work") {
+  struct Case {
+    std::string program, args, expect;
+  };
+  for (const auto& c : {Case{WEFT_TRIANGLE, "--size -1x-1", "weft-triangle: --size expects WxH with sides 1..8192, got '-1x-1'"},
+                        Case{WEFT_TRIANGLE, "--frobnicate", "weft-triangle: unknown or incomplete argument '--frobnicate'"},
+                        // std::stoul's exception ended these ("terminate called"); atoi's 0 ran a benchmark.
+                        Case{WEFT_BENCH_BTF_DATA, "--size abc", "weft-bench-btf-data: --size 'abc': expected a whole number"},
+                        Case{WEFT_BENCH_BTF_DATA, "--clusters 1,,2", "--clusters '1,,2'"},
+                        Case{WEFT_BENCH_BTF_TRAIN, "--texels -1", "weft-bench-btf-train: --texels '-1': expected a whole number 1..65536"},
+                        Case{WEFT_BENCH_BTF_TRAIN, "--threads 100000", "--threads '100000'"},
+                        Case{WEFT_BENCH_BTF_TRAIN, "--minutes nan", "--minutes 'nan'"},
+                        Case{WEFT_BENCH_BTF_INTERPOLATION, "--seed -1", "--seed '-1': expected a whole number"},
+                        Case{WEFT_BENCH_SSDF, "--resolution -1", "weft-bench-ssdf: --resolution expects a whole number 1..1024"},
+                        Case{WEFT_BENCH_SSDF, "--lighting --samples abc", "--samples expects a whole number"}}) {
+    const auto r = run_command("timeout 20 " + c.program + " " + c.args);
+    CAPTURE(c.args);
+    CHECK(r.exit_code == 2);
+    CHECK_MESSAGE(contains(r.output, c.expect), r.output);
+    CHECK_FALSE(contains(r.output, "terminate called"));
+    CHECK_FALSE(contains(r.output, "4294967295"));
+  }
+  for (const char* program : {WEFT_BENCH_BTF_DATA, WEFT_BENCH_SSDF}) {
+    const auto help = run_command(std::string("timeout 20 ") + program + " --help");
+    CHECK(help.exit_code == 0);
+    CHECK(contains(help.output, "usage: "));
+  }
 }

@@ -169,6 +169,61 @@ TEST_CASE("a full disk (a file-size limit) and an unwritable folder are errors, 
   CHECK(r.error().message.find("Not a directory") != std::string::npos);
 }
 
+TEST_CASE("issue 33: a read-only file, a FIFO, a device or a folder at the path is refused and left as it was") {
+  TempDir dir;
+  const auto bytes = filled(64, 7);
+  // Read-only: no write bit for anyone. Root's rename ignores the bits; the writer does not.
+  const auto ro = dir.path / "ro.bin";
+  std::ofstream(ro) << "precious";
+  fs::permissions(ro, fs::perms::owner_read | fs::perms::group_read | fs::perms::others_read);
+  auto r = weft::write_file_atomically(ro, {std::span<const std::byte>(bytes)}, "image");
+  REQUIRE_FALSE(r);
+  CHECK(r.error().message.find("cannot write image '" + ro.string() + "': the file is read-only") != std::string::npos);
+  std::ifstream in(ro);
+  std::string kept;
+  std::getline(in, kept);
+  CHECK(kept == "precious");
+  // A FIFO (rename would have replaced it with a regular file; opening it would wait).
+  const auto fifo = dir.path / "fifo.png";
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  r = weft::write_file_atomically(fifo, {std::span<const std::byte>(bytes)}, "image");
+  REQUIRE_FALSE(r);
+  CHECK(r.error().message.find("it is a FIFO, not a regular file") != std::string::npos);
+  CHECK(fs::is_fifo(fifo));
+  // A link to a device: refused, the link and /dev/null untouched.
+  const auto null_link = dir.path / "null.png";
+  fs::create_symlink("/dev/null", null_link);
+  r = weft::write_file_atomically(null_link, {std::span<const std::byte>(bytes)}, "image");
+  REQUIRE_FALSE(r);
+  CHECK(r.error().message.find("'" + null_link.string() + "': it is a character device") != std::string::npos);
+  CHECK(fs::is_symlink(null_link));
+  CHECK(fs::is_character_file("/dev/null"));
+  // A folder.
+  fs::create_directories(dir.path / "folder.png");
+  r = weft::write_file_atomically(dir.path / "folder.png", {std::span<const std::byte>(bytes)}, "image");
+  REQUIRE_FALSE(r);
+  CHECK(r.error().message.find("it is a folder") != std::string::npos);
+  // A link loop.
+  fs::create_symlink("loop.png", dir.path / "loop.png");
+  r = weft::write_file_atomically(dir.path / "loop.png", {std::span<const std::byte>(bytes)}, "image");
+  REQUIRE_FALSE(r);
+  CHECK(dir.stray_files() == 0);
+}
+
+TEST_CASE("issue 33: a symlink is written through: its target gets the bytes and the link stays a link") {
+  TempDir dir;
+  fs::create_directories(dir.path / "renders");
+  const auto target = dir.path / "renders" / "out.bin";
+  std::ofstream(target) << "old";
+  const auto link = dir.path / "latest.bin";
+  fs::create_symlink("renders/out.bin", link);
+  const auto bytes = filled(16, 9);
+  REQUIRE(weft::write_file_atomically(link, {std::span<const std::byte>(bytes)}, "image"));
+  CHECK(fs::is_symlink(link));
+  CHECK(read_all(target) == bytes);
+  CHECK(dir.stray_files() == 0);
+}
+
 // ---- read_input_file / check_input_file (issue 33: a FIFO as a scene, mesh or photo blocked forever)
 
 namespace {

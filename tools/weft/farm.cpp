@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 #include <unistd.h>
 #include "commands.h"
+#include <weft/text_input.h>
 import weft.core;
 import weft.farm;
 
@@ -125,6 +126,7 @@ std::filesystem::path cache_of(const FarmArgs& a) {
 
 // A sweep spec (it has "studies") or a task list, as a task list.
 Result<farm::TaskList> load(const FarmArgs& a) {
+  if (auto why = binary_text_input(a.input, "task list or sweep spec")) return fail(ErrorKind::Parse, "{}", *why);
   auto bytes = read_input_file(a.input, "task list or sweep spec");
   if (!bytes) return std::unexpected(bytes.error());
   const auto doc = nlohmann::json::parse(bytes->begin(), bytes->end(), nullptr, false);

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <memory>
 #include <optional>
+#include <span>
 #include <utility>
 #include <string>
 #include <string_view>
@@ -363,21 +364,21 @@ Command add_graph(CLI::App& app) {
       return fail_with("graph", Error{ErrorKind::InvalidArgument, "a scene file is required (weft graph SCENE ...)"});
     auto report = describe(*c);
     if (!report) return fail_with("graph", report.error());
-    const auto write = [](const std::string& path, const std::string& text) -> Result<void> {
+    // Through write_file_atomically, as images are: a full disk, a FIFO (which an ofstream waited
+    // on forever), a read-only file or a device is an error and leaves no half file (issue 33).
+    const auto write = [](const std::string& path, const std::string& text, std::string_view what) -> Result<void> {
       if (path == "-") {
         std::printf("%s", text.c_str());
         return {};
       }
-      std::ofstream out(path);
-      out << text;
-      if (!out) return fail(ErrorKind::Io, "cannot write '{}'", path);
+      if (auto ok = write_file_atomically(path, {std::as_bytes(std::span(text))}, what); !ok) return ok;
       std::printf("wrote %s\n", path.c_str());
       return {};
     };
     if (!dot->empty())
-      if (auto ok = write(*dot, report->dot); !ok) return fail_with("graph", ok.error());
+      if (auto ok = write(*dot, report->dot, "DOT graph"); !ok) return fail_with("graph", ok.error());
     if (!export_pipeline->empty())
-      if (auto ok = write(*export_pipeline, report->pipeline); !ok) return fail_with("graph", ok.error());
+      if (auto ok = write(*export_pipeline, report->pipeline, "pipeline"); !ok) return fail_with("graph", ok.error());
     if (*dump) std::printf("%s", report->dump.c_str());
     for (const auto& w : report->warnings) std::printf("warning: %s\n", w.c_str());
     std::printf("passes:");

@@ -32,6 +32,7 @@
 #include <nlohmann/json.hpp>
 #include <unistd.h>
 #include "commands.h"
+#include <weft/text_input.h>
 import weft.core;
 import weft.gpu;
 import weft.image;
@@ -138,6 +139,7 @@ Result<Study> prepare(const Args& a) {
                   scene::max_output_side, a.size);
     s.options.width = size->width, s.options.height = size->height;
   }
+  if (auto why = binary_text_input(a.scene_path, "scene file")) return fail(ErrorKind::Parse, "{}", *why);
   auto bytes = read_input_file(a.scene_path, "scene file");
   if (!bytes) return std::unexpected(bytes.error());
   auto scene = scene::load_scene(a.scene_path);

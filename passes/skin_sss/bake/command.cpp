@@ -44,7 +44,7 @@ std::function<int()> add_skin_lut_bake(CLI::App& command) {
   sub->add_option("--max-curvature", a->max_curvature, "1/r of the last row, in 1/mm (0, 10]")->capture_default_str();
   sub->add_option("--samples", a->samples, "Ring quadrature samples (per Gaussian)")->capture_default_str();
   sub->add_option("--quadrature", a->quadrature, "per-gaussian or uniform")->capture_default_str();
-  sub->add_option("--threads", a->threads, "Threads (0: all)")->capture_default_str();
+  sub->add_option("--threads", a->threads, "Threads (0: all)")->capture_default_str()->check(CLI::Range(0u, 1024u));
   sub->add_flag("--alpha", a->alpha, "PNG: keep the Beckmann alpha channel (EXR always has it)");
   return [a] {
             skin::LutParams p;

@@ -107,6 +107,11 @@ Result<Script> parse_script(const std::filesystem::path& path, const std::string
     if (n == "accumulate" && !whole_within(command.args[0], 1, 4096))
       return bad("accumulate needs a whole number of samples within 1..4096 (1: off)");
     if (n == "wait" && !whole_within(command.args[0], 0, 1e6)) return bad("wait needs a whole number of frames within 0..1000000");
+    // The presets renderer::quality_from_string reads (issue 33: `quality ultra` passed the check
+    // and failed only when the line ran, after the window opened).
+    if (n == "quality" && command.args[0] != "low" && command.args[0] != "medium" && command.args[0] != "high" &&
+        command.args[0] != "reference")
+      return bad("quality takes low, medium, high or reference, got '" + command.args[0] + "'");
     if ((n == "ui" || n == "overlay") && command.args[0] != "on" && command.args[0] != "off")
       return bad(n + " takes on or off");
     if (n == "option" && !nlohmann::json::accept(command.args[2]))

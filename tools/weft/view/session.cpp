@@ -25,6 +25,7 @@ module;
 #include <imgui.h>
 #include <backends/imgui_impl_glfw.h>
 #include <nlohmann/json.hpp>
+#include <weft/text_input.h>
 module weft.viewer;
 import weft.core;
 import weft.gpu;
@@ -146,12 +147,20 @@ Result<void> Session::open() {
   else
     return std::unexpected(q.error());
   if (options.script) {
+    if (auto why = binary_text_input(*options.script, "script")) return fail(ErrorKind::Parse, "{}", *why);
     auto text = read_input_file(*options.script, "script");
     if (!text) return std::unexpected(text.error());
     auto parsed = parse_script(*options.script, std::string(text->begin(), text->end()));
     if (!parsed) return std::unexpected(parsed.error());
     script = std::move(*parsed);
   }
+  // The pipeline file and the shader folder are named before the window opens, as the script
+  // is (issue 33: a FIFO, a folder or a missing --pipeline surfaced only after the display).
+  // Their contents are the live reload's: a pipeline that does not compile yet is shown in the UI.
+  if (options.pipeline)
+    if (auto ok = check_input_file(*options.pipeline, "pipeline file"); !ok) return ok;
+  if (options.shader_dir && !std::filesystem::is_directory(*options.shader_dir))
+    return fail(ErrorKind::InvalidArgument, "--shader-dir '{}' is not a folder", options.shader_dir->string());
   refine_samples = options.refine_samples.value_or(options.script ? 1u : 16u);
   return load(true);
 }
