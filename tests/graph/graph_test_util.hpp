@@ -6,6 +6,13 @@
 
 namespace graph_test {
 
+// A triangle covering the viewport (gl_VertexIndex 0..2), for full-screen passes in GPU tests.
+inline constexpr const char* fullscreen_vs = R"(#version 460
+void main() {
+  vec2 p = vec2((gl_VertexIndex << 1) & 2, gl_VertexIndex & 2);
+  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+})";
+
 inline bool contains(const std::string& haystack, const std::string& needle) {
   return haystack.find(needle) != std::string::npos;
 }

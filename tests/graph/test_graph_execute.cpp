@@ -23,11 +23,7 @@ namespace {
 
 gpu::Device& device() { return weft::test::gpu().device; }
 
-constexpr const char* fullscreen_vs = R"(#version 460
-void main() {
-  vec2 p = vec2((gl_VertexIndex << 1) & 2, gl_VertexIndex & 2);
-  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
-})";
+using graph_test::fullscreen_vs;
 
 // A compute pipeline over one storage image (binding 0) and, optionally, a second one it
 // reads (binding 1), both r32float: dst = src + add (or just add without a source).

@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 #include "graph_test_util.hpp"
 import weft.core;
@@ -23,11 +25,7 @@ namespace {
 
 gpu::Device& device() { return weft::test::gpu().device; }
 
-constexpr const char* fullscreen_vs = R"(#version 460
-void main() {
-  vec2 p = vec2((gl_VertexIndex << 1) & 2, gl_VertexIndex & 2);
-  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
-})";
+using graph_test::fullscreen_vs;
 
 // Each texel of the target: the mean of the 2 x 2 texels of the (one-mip) source view.
 constexpr const char* downsample_fs = R"(#version 460
@@ -38,6 +36,35 @@ void main() {
   color = 0.25 * (texelFetch(src, p, 0) + texelFetch(src, p + ivec2(1, 0), 0) + texelFetch(src, p + ivec2(0, 1), 0) +
                   texelFetch(src, p + ivec2(1, 1), 0));
 })";
+
+// A host-written buffer holding `bytes` (a texture's mip 0 to upload).
+gpu::Buffer staging_buffer(const std::vector<std::uint8_t>& bytes) {
+  auto staging = device().create_buffer({.label = "level0", .size = bytes.size(),
+                                         .usage = gpu::BufferUsage::MapWrite | gpu::BufferUsage::CopySrc});
+  REQUIRE(staging);
+  std::memcpy(staging->mapped()->data(), bytes.data(), bytes.size());
+  return std::move(*staging);
+}
+
+// A pass creating a square RGBA8 texture of `mips` mips and copying `source` into mip 0 --
+// only mip 0 is declared, so the other mips are parts the next passes write.
+TextureHandle add_upload(RenderGraph& graph, BufferHandle source, std::string_view name, std::uint32_t size,
+                         std::uint32_t mips) {
+  struct Upload {
+    TextureHandle texture;
+  };
+  auto& upload = graph.add_pass<Upload>(
+      "upload",
+      [&](PassBuilder& b, Upload& d) {
+        b.read(source, BufferUse::CopySrc);
+        d.texture = b.write(b.create_texture(name, {.size = gpu::Extent3D{size, size, 1}, .mip_level_count = mips}),
+                            TextureUse::CopyDst, TextureRange::mip(0));
+      },
+      [source](const PassResources& res, const Upload& d, PassContext& ctx) {
+        ctx.encoder().copy_buffer_to_texture(res.buffer(source), 0, res.texture(d.texture), 0);
+      });
+  return upload.texture;
+}
 
 }  // namespace
 
@@ -69,10 +96,7 @@ TEST_CASE("a mip chain rendered inside one texture, each pass sampling the mip a
       px[2] = std::uint8_t(((x ^ y) & 1) * 255);
       px[3] = std::uint8_t(((x / 4 + y / 4) & 1) * 200 + 20);
     }
-  auto staging = device().create_buffer({.label = "level0", .size = level0.size(),
-                                         .usage = gpu::BufferUsage::MapWrite | gpu::BufferUsage::CopySrc});
-  REQUIRE(staging);
-  std::memcpy(staging->mapped()->data(), level0.data(), level0.size());
+  const gpu::Buffer staging = staging_buffer(level0);
   std::vector<std::uint64_t> offsets(mips + 1, 0);
   for (std::uint32_t m = 0; m < mips; ++m) offsets[m + 1] = offsets[m] + std::uint64_t(size >> m) * (size >> m) * 4;
   auto readback = device().create_buffer({.label = "mips", .size = offsets[mips] + size * size * 4,
@@ -84,19 +108,9 @@ TEST_CASE("a mip chain rendered inside one texture, each pass sampling the mip a
     TextureHandle chain;
     std::uint32_t mip = 0;
   };
-  auto source = graph.import_buffer("level0", &*staging, gpu::Access::HostWrite);
+  auto source = graph.import_buffer("level0", &staging, gpu::Access::HostWrite);
   auto out = graph.import_buffer("mips", &*readback, gpu::Access::Undefined);
-  auto& upload = graph.add_pass<Step>(
-      "upload",
-      [&](PassBuilder& b, Step& d) {
-        b.read(source, BufferUse::CopySrc);
-        d.chain = b.write(b.create_texture("chain", {.size = gpu::Extent3D{size, size, 1}, .mip_level_count = mips}),
-                          TextureUse::CopyDst, TextureRange::mip(0));
-      },
-      [&](const PassResources& res, const Step& d, PassContext& ctx) {
-        ctx.encoder().copy_buffer_to_texture(res.buffer(source), 0, res.texture(d.chain), 0);
-      });
-  TextureHandle chain = upload.chain;
+  TextureHandle chain = add_upload(graph, source, "chain", size, mips);
   for (std::uint32_t m = 1; m < mips; ++m) {
     auto& step = graph.add_pass<Step>(
         "mip " + std::to_string(m),
@@ -312,10 +326,7 @@ TEST_CASE("a mip chain blitted inside one texture: each pass copies one mip into
   std::vector<std::uint8_t> level0(size * size * 4);
   for (std::uint32_t i = 0; i < size * size; ++i)
     for (std::uint32_t ch = 0; ch < 4; ++ch) level0[i * 4 + ch] = std::uint8_t((i % size) * 12 + ch * 8);
-  auto staging = device().create_buffer({.label = "level0", .size = level0.size(),
-                                         .usage = gpu::BufferUsage::MapWrite | gpu::BufferUsage::CopySrc});
-  REQUIRE(staging);
-  std::memcpy(staging->mapped()->data(), level0.data(), level0.size());
+  const gpu::Buffer staging = staging_buffer(level0);
   auto readback = device().create_buffer(
       {.label = "last mip", .size = 4, .usage = gpu::BufferUsage::MapRead | gpu::BufferUsage::CopyDst});
   REQUIRE(readback);
@@ -325,18 +336,8 @@ TEST_CASE("a mip chain blitted inside one texture: each pass copies one mip into
     BufferHandle out;
     std::uint32_t mip = 0;
   };
-  auto source = graph.import_buffer("level0", &*staging, gpu::Access::HostWrite);
-  auto& upload = graph.add_pass<Data>(
-      "upload",
-      [&](PassBuilder& b, Data& d) {
-        b.read(source, BufferUse::CopySrc);
-        d.t = b.write(b.create_texture("t", {.size = gpu::Extent3D{size, size, 1}, .mip_level_count = mips}),
-                      TextureUse::CopyDst, TextureRange::mip(0));
-      },
-      [&](const PassResources& res, const Data& d, PassContext& ctx) {
-        ctx.encoder().copy_buffer_to_texture(res.buffer(source), 0, res.texture(d.t), 0);
-      });
-  TextureHandle t = upload.t;
+  auto source = graph.import_buffer("level0", &staging, gpu::Access::HostWrite);
+  TextureHandle t = add_upload(graph, source, "t", size, mips);
   for (std::uint32_t m = 1; m < mips; ++m) {
     auto& step = graph.add_pass<Data>(
         "blit " + std::to_string(m),
